@@ -1,0 +1,1 @@
+"""Dataset format (what engine exporters write), checks, and the PyTorch loader."""

@@ -1,0 +1,220 @@
+"""On-disk dataset format: one directory per sequence, one OpenEXR file per frame and buffer.
+
+    SEQ/meta.json                      metadata (``SequenceMeta``)
+    SEQ/lr/<buffer>/<frame:05d>.exr    low-resolution buffers (colour is jittered)
+    SEQ/hr/<buffer>/<frame:05d>.exr    high-resolution buffers (``reference`` is the target)
+
+``docs/dataset.md`` is the user-facing description; this module is the truth.
+The engine's own conventions (depth encoding, reverse-Z, motion units and sign,
+colour space) are recorded in ``meta.json`` and converted to the toolkit's
+canonical ones (``mnss_kit.ops.conventions``) by ``read_buffer``, once, here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from ..config import from_dict, to_dict
+from ..errors import UserError
+from ..fileio import atomic_write_json
+from ..ops import colour
+from . import exr
+
+FORMAT_NAME = "mnss-dataset"
+FORMAT_VERSION = 1
+META_FILE = "meta.json"
+
+
+@dataclass(frozen=True)
+class BufferSpec:
+    channels: tuple[str, ...]
+    half: bool  # stored as half float (else float32)
+
+
+# Buffers by resolution.  Depth and motion stay float32: half float loses
+# sub-pixel motion precision beyond ~64 px and depth precision near the far plane.
+BUFFERS: dict[str, dict[str, BufferSpec]] = {
+    "lr": {
+        "color": BufferSpec(("R", "G", "B"), True),
+        "depth": BufferSpec(("Z",), False),
+        "motion": BufferSpec(("R", "G"), False),
+        "albedo": BufferSpec(("R", "G", "B"), True),
+        "normal": BufferSpec(("R", "G", "B"), True),
+        "roughness": BufferSpec(("Y",), True),
+        "metallic": BufferSpec(("Y",), True),
+        "fbeta": BufferSpec(("R", "G", "B"), True),
+        "emissive": BufferSpec(("R", "G", "B"), True),
+    },
+    "hr": {
+        "reference": BufferSpec(("R", "G", "B"), True),
+        "depth": BufferSpec(("Z",), False),
+        "motion": BufferSpec(("R", "G"), False),
+        "albedo": BufferSpec(("R", "G", "B"), True),
+        "normal": BufferSpec(("R", "G", "B"), True),
+        "roughness": BufferSpec(("Y",), True),
+        "metallic": BufferSpec(("Y",), True),
+        "fbeta": BufferSpec(("R", "G", "B"), True),
+        "emissive": BufferSpec(("R", "G", "B"), True),
+    },
+}
+REQUIRED_BUFFERS = {"lr": ("color", "depth", "motion"), "hr": ("reference",)}
+
+
+@dataclass
+class MotionConvention:
+    units: Literal["pixels", "uv", "ndc"] = "pixels"  # pixels of the buffer's own resolution
+    points_to: Literal["previous", "current"] = "previous"
+    y_axis: Literal["down", "up"] = "down"
+    scale: float = 1.0  # extra multiplier an engine applies (FSR2's motionVectorScale)
+
+
+@dataclass
+class FrameMeta:
+    index: int
+    jitter: tuple[float, float]  # LR pixels, +x right, +y down
+    reset: bool = False  # camera cut: history is invalid
+    time: float = 0.0
+    view: list[float] = field(default_factory=list)  # 4x4 row-major world->view
+    proj: list[float] = field(default_factory=list)  # 4x4 row-major, unjittered
+
+
+@dataclass
+class SequenceMeta:
+    format: str
+    version: int
+    name: str
+    scale: int
+    lr_size: tuple[int, int]  # (width, height)
+    hr_size: tuple[int, int]
+    jitter_pattern: str
+    frames: list[FrameMeta]
+    near: float = 0.1
+    far: float = 1000.0
+    reverse_z: bool = False
+    depth_encoding: Literal["hardware", "linear"] = "hardware"
+    motion: MotionConvention = field(default_factory=MotionConvention)
+    color_space: Literal["linear_hdr", "display"] = "linear_hdr"
+    exposure: float = 1.0
+    buffers: dict[str, list[str]] = field(default_factory=lambda: {k: list(v) for k, v in REQUIRED_BUFFERS.items()})
+    scene: dict = field(default_factory=dict)  # free-form provenance (scene, seed, renderer)
+
+    def __post_init__(self):
+        if self.format != FORMAT_NAME:
+            raise ValueError(f"format must be '{FORMAT_NAME}', got '{self.format}'")
+        if self.version > FORMAT_VERSION:
+            raise ValueError(f"dataset format version {self.version} is newer than this toolkit ({FORMAT_VERSION})")
+        lw, lh = self.lr_size
+        hw, hh = self.hr_size
+        if hw != lw * self.scale or hh != lh * self.scale:
+            raise ValueError(f"hr_size {self.hr_size} is not scale {self.scale} x lr_size {self.lr_size}")
+
+    @property
+    def frame_count(self) -> int:
+        return len(self.frames)
+
+
+def buffer_path(seq_dir: str | Path, res: str, buffer: str, index: int) -> Path:
+    return Path(seq_dir) / res / buffer / f"{index:05d}.exr"
+
+
+def write_meta(seq_dir: str | Path, meta: SequenceMeta) -> Path:
+    return atomic_write_json(Path(seq_dir) / META_FILE, to_dict(meta))
+
+
+def read_meta(seq_dir: str | Path) -> SequenceMeta:
+    path = Path(seq_dir) / META_FILE
+    if not path.is_file():
+        raise UserError(f"{seq_dir} is not a dataset sequence (no {META_FILE})")
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise UserError(f"{path}: not valid JSON ({e})") from None
+    return from_dict(SequenceMeta, data, source=str(path))
+
+
+def find_sequences(root: str | Path) -> list[Path]:
+    """A sequence directory itself, or every sequence directly below ``root``, sorted."""
+    root = Path(root)
+    if not root.exists():
+        raise UserError(f"dataset directory not found: {root}")
+    if (root / META_FILE).is_file():
+        return [root]
+    seqs = sorted(p.parent for p in root.glob(f"*/{META_FILE}"))
+    if not seqs:
+        raise UserError(f"no dataset sequences in {root} (expected {META_FILE} in it or its subdirectories)")
+    return seqs
+
+
+def write_buffer(seq_dir: str | Path, res: str, buffer: str, index: int, image: np.ndarray) -> Path:
+    spec = BUFFERS[res][buffer]
+    return exr.write_exr(buffer_path(seq_dir, res, buffer, index), image, half=spec.half, channels=spec.channels)
+
+
+def read_raw_buffer(seq_dir: str | Path, res: str, buffer: str, index: int) -> np.ndarray:
+    """``(H, W, C)`` float32 exactly as stored (engine conventions)."""
+    if buffer not in BUFFERS.get(res, {}):
+        raise UserError(f"unknown buffer '{res}/{buffer}'")
+    return exr.read_exr(buffer_path(seq_dir, res, buffer, index), BUFFERS[res][buffer].channels)
+
+
+def read_buffer(seq_dir: str | Path, meta: SequenceMeta, res: str, buffer: str, index: int) -> np.ndarray:
+    """``(H, W, C)`` float32 in canonical conventions (see ``mnss_kit.ops.conventions``)."""
+    raw = read_raw_buffer(seq_dir, res, buffer, index)
+    size = meta.lr_size if res == "lr" else meta.hr_size
+    if raw.shape[:2] != (size[1], size[0]):
+        raise UserError(
+            f"{buffer_path(seq_dir, res, buffer, index)}: size {raw.shape[1]}x{raw.shape[0]} "
+            f"does not match meta {res}_size {size[0]}x{size[1]}"
+        )
+    if buffer == "depth":
+        return canonical_depth(raw, meta)
+    if buffer == "motion":
+        return canonical_motion(raw, meta, size)
+    if buffer in ("color", "reference"):
+        return canonical_colour(raw, meta)
+    return raw
+
+
+def canonical_depth(raw: np.ndarray, meta: SequenceMeta) -> np.ndarray:
+    """Stored depth -> linear depth normalised to [0, 1] (0 at near)."""
+    d = raw.astype(np.float64)
+    n, f = meta.near, meta.far
+    if meta.depth_encoding == "hardware":
+        if meta.reverse_z:
+            d = 1.0 - d
+        # standard D3D/Vulkan-style [0, 1] hardware depth: d = f (z - n) / (z (f - n))
+        z = (n * f) / np.maximum(f - d * (f - n), 1e-12)
+    else:
+        z = d
+    return np.clip((z - n) / (f - n), 0.0, 1.0).astype(np.float32)
+
+
+def canonical_motion(raw: np.ndarray, meta: SequenceMeta, size: tuple[int, int]) -> np.ndarray:
+    """Stored motion -> pixels of this resolution, +y down, pointing to the previous frame."""
+    m = raw[..., :2].astype(np.float32) * np.float32(meta.motion.scale)
+    w, h = size
+    if meta.motion.units == "uv":
+        m = m * np.array([w, h], dtype=np.float32)
+    elif meta.motion.units == "ndc":
+        m = m * np.array([w / 2.0, h / 2.0], dtype=np.float32)
+    if meta.motion.y_axis == "up":
+        m[..., 1] = -m[..., 1]
+    if meta.motion.points_to == "current":
+        m = -m
+    return m
+
+
+def canonical_colour(raw: np.ndarray, meta: SequenceMeta) -> np.ndarray:
+    if meta.color_space == "linear_hdr":
+        return colour.to_display(raw, meta.exposure)
+    return np.clip(raw, 0.0, 1.0).astype(np.float32)
+
+
+def replace_meta(meta: SequenceMeta, **changes) -> SequenceMeta:
+    return dataclasses.replace(meta, **changes)

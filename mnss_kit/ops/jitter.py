@@ -1,0 +1,104 @@
+"""Sub-pixel jitter patterns, the only definition in the toolkit.
+
+An offset ``(jx, jy)`` is in LR pixels relative to the LR pixel centre, each
+in ``[-0.5, 0.5)`` (see ``conventions``).  For a scale ``s`` the LR pixel is a
+tile of ``s x s`` HR pixels; sub-pixel ``(dx, dy)`` of the tile has its centre
+at offset ``((dx + 0.5) / s - 0.5, (dy + 0.5) / s - 0.5)``.
+
+Patterns
+    ``mnss``   MNSS (Yang et al. 2023).  x2: the sub-pixel moves by the speed
+               cycles {1, 0} horizontally and {1, 1, 0} vertically (HR pixels
+               per frame, wrapping inside the tile), period 12.  x3: a fixed
+               9-frame order that covers the 3x3 tile, consecutive samples far
+               apart.  Only scales 2 and 3.
+    ``halton`` Halton(2, 3), index starting at 1, period ``8 * s * s``.
+    ``center`` no jitter (ablation).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import UserError
+
+PATTERNS = ("mnss", "halton", "center")
+
+MNSS_X2_SPEED_X = (1, 0)
+MNSS_X2_SPEED_Y = (1, 1, 0)
+# (dx, dy) per frame; each step jumps to a different row and column of the tile.
+MNSS_X3_ORDER = ((1, 1), (0, 0), (2, 2), (0, 1), (2, 0), (1, 2), (0, 2), (2, 1), (1, 0))
+
+
+def period(pattern: str, scale: int) -> int:
+    """Number of frames after which the pattern repeats."""
+    _check(pattern, scale)
+    if pattern == "mnss":
+        return 12 if scale == 2 else 9
+    if pattern == "halton":
+        return 8 * scale * scale
+    return 1
+
+
+def subpixel_center_offset(dx: int, dy: int, scale: int) -> tuple[float, float]:
+    """Offset (LR pixels) of the centre of sub-pixel ``(dx, dy)`` of an ``s x s`` tile."""
+    return ((dx + 0.5) / scale - 0.5, (dy + 0.5) / scale - 0.5)
+
+
+def halton(index: int, base: int) -> float:
+    """Radical inverse of ``index`` in ``base``; in [0, 1)."""
+    f, r = 1.0, 0.0
+    i = index
+    while i > 0:
+        f /= base
+        r += f * (i % base)
+        i //= base
+    return r
+
+
+def mnss_subpixels(scale: int, n: int) -> np.ndarray:
+    """``(n, 2)`` int32 sub-pixel indices ``(dx, dy)`` of the MNSS pattern."""
+    _check("mnss", scale)
+    out = np.zeros((n, 2), dtype=np.int32)
+    if scale == 3:
+        for t in range(n):
+            out[t] = MNSS_X3_ORDER[t % 9]
+        return out
+    x = y = 0
+    for t in range(n):
+        out[t] = (x, y)
+        x = (x + MNSS_X2_SPEED_X[t % len(MNSS_X2_SPEED_X)]) % 2
+        y = (y + MNSS_X2_SPEED_Y[t % len(MNSS_X2_SPEED_Y)]) % 2
+    return out
+
+
+def jitter_sequence(pattern: str, scale: int, n: int) -> np.ndarray:
+    """``(n, 2)`` float64 jitter offsets ``(jx, jy)`` in LR pixels for frames ``0..n-1``."""
+    _check(pattern, scale)
+    if pattern == "center":
+        return np.zeros((n, 2))
+    if pattern == "halton":
+        p = period(pattern, scale)
+        return np.array([(halton(t % p + 1, 2) - 0.5, halton(t % p + 1, 3) - 0.5) for t in range(n)])
+    subs = mnss_subpixels(scale, n)
+    return np.array([subpixel_center_offset(int(dx), int(dy), scale) for dx, dy in subs])
+
+
+def subpixel_index(offset: np.ndarray, scale: int) -> np.ndarray:
+    """Sub-pixel ``(dx, dy)`` that contains the jittered sample; int32, shape of ``offset``.
+
+    ``offset`` is ``(..., 2)`` in LR pixels.  The sample at LR pixel ``(i, j)``
+    lands in HR pixel ``(s*i + dy, s*j + dx)``.  A sample exactly on a sub-pixel
+    border (the centre pattern at even scales) goes to the right/lower one.
+    """
+    o = np.asarray(offset, dtype=np.float64)
+    idx = np.floor((o + 0.5) * scale).astype(np.int32)
+    return np.clip(idx, 0, scale - 1)
+
+
+def _check(pattern: str, scale: int) -> None:
+    if pattern not in PATTERNS:
+        raise UserError(f"unknown jitter pattern '{pattern}' (one of {', '.join(PATTERNS)})")
+    if not isinstance(scale, (int, np.integer)) or scale < 2:
+        raise UserError(f"scale must be an integer >= 2, got {scale!r}")
+    if pattern == "mnss" and scale not in (2, 3):
+        raise UserError(f"the mnss jitter pattern exists for scales 2 and 3, not {scale}")

@@ -1,0 +1,1 @@
+"""Built-in G-buffer renderer (OpenGL through EGL) and scene import."""
