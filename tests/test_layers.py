@@ -1,0 +1,81 @@
+"""The package layout keeps its layers: ops/ is pure numpy, emulate/ never needs torch, and no
+stage imports a later one (render -> dataset -> model -> train -> eval -> quantize -> split ->
+export -> emulate)."""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PKG = Path(__file__).resolve().parent.parent / "mnss_kit"
+STAGES = ["render", "dataset", "model", "train", "eval", "quantize", "split", "export", "emulate"]
+# Stages that may be imported from anywhere: shared foundations, not pipeline steps.
+SHARED = {"ops", "metrics", "config", "errors", "fileio", "shaders"}
+
+
+def imported_modules(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    rel = path.relative_to(PKG.parent).with_suffix("")
+    package = list(rel.parts[:-1])
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - node.level + 1]
+                mod = ".".join(base + ([node.module] if node.module else []))
+                if node.module is None:
+                    names.update(f"{mod}.{a.name}" for a in node.names)
+                else:
+                    names.add(mod)
+            else:
+                names.add(node.module)
+    return names
+
+
+def python_files(sub: str) -> list[Path]:
+    root = PKG / sub
+    return sorted(root.rglob("*.py")) if root.is_dir() else []
+
+
+def stage_of(module: str) -> str | None:
+    parts = module.split(".")
+    if parts[0] != "mnss_kit" or len(parts) < 2:
+        return None
+    return parts[1]
+
+
+@pytest.mark.parametrize("path", python_files("ops"), ids=lambda p: p.name)
+def test_ops_import_only_numpy(path):
+    for mod in imported_modules(path):
+        top = mod.split(".")[0]
+        if top == "mnss_kit":
+            assert stage_of(mod) in ("ops", "errors"), f"{path.name} imports {mod}"
+        else:
+            assert top in {"numpy", "__future__", "math", "dataclasses", "typing", "functools", "enum"}, (
+                f"{path.name} imports {mod}: ops/ may import only numpy"
+            )
+
+
+@pytest.mark.parametrize("path", python_files("emulate"), ids=lambda p: p.name)
+def test_emulate_does_not_import_torch(path):
+    for mod in imported_modules(path):
+        assert mod.split(".")[0] != "torch", f"{path.name} imports {mod}"
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_no_stage_imports_a_later_one(stage):
+    later = set(STAGES[STAGES.index(stage) + 1 :])
+    for path in python_files(stage):
+        for mod in imported_modules(path):
+            target = stage_of(mod)
+            if target in later:
+                pytest.fail(f"{path.relative_to(PKG)} ({stage}) imports {mod} from the later stage {target}")
+
+
+def test_metrics_import_no_stage():
+    for path in python_files("metrics"):
+        for mod in imported_modules(path):
+            target = stage_of(mod)
+            assert target is None or target in SHARED, f"{path.relative_to(PKG)} imports {mod}"
