@@ -79,6 +79,9 @@ def decode_image(data: bytes, what: str) -> np.ndarray:
 
     try:
         with Image.open(io.BytesIO(data)) as image:
+            if image.mode.startswith("I"):  # 16-bit grey; PIL's own conversion would clip at 255
+                grey = np.clip(np.asarray(image, dtype=np.float64) / 257.0, 0.0, 255.0).round().astype(np.uint8)
+                return np.repeat(grey[..., None], 3, axis=2)
             has_alpha = image.mode in ("RGBA", "LA", "PA") or "transparency" in image.info
             return np.asarray(image.convert("RGBA" if has_alpha else "RGB"), dtype=np.uint8).copy()
     except (UnidentifiedImageError, OSError, ValueError) as error:
