@@ -25,6 +25,9 @@ PATTERNS = ("mnss", "halton", "center")
 
 MNSS_X2_SPEED_X = (1, 0)
 MNSS_X2_SPEED_Y = (1, 1, 0)
+# Offsets this close (in sub-pixels) to a sub-pixel border count as on it; far above float32
+# rounding of an offset, far below any pattern's distance from a border when not on one.
+SUBPIXEL_BORDER_TOLERANCE = 1e-4
 # (dx, dy) per frame; each step jumps to a different row and column of the tile.
 MNSS_X3_ORDER = ((1, 1), (0, 0), (2, 2), (0, 1), (2, 0), (1, 2), (0, 2), (2, 1), (1, 0))
 
@@ -87,11 +90,13 @@ def subpixel_index(offset: np.ndarray, scale: int) -> np.ndarray:
     """Sub-pixel ``(dx, dy)`` that contains the jittered sample; int32, shape of ``offset``.
 
     ``offset`` is ``(..., 2)`` in LR pixels.  The sample at LR pixel ``(i, j)``
-    lands in HR pixel ``(s*i + dy, s*j + dx)``.  A sample exactly on a sub-pixel
-    border (the centre pattern at even scales) goes to the right/lower one.
+    lands in HR pixel ``(s*i + dy, s*j + dx)``.  A sample on a sub-pixel border
+    (the centre pattern at even scales, Halton thirds at scale 3) goes to the
+    right/lower one; "on" means within ``SUBPIXEL_BORDER_TOLERANCE`` sub-pixels,
+    so float32 and float64 offsets of the same pattern pick the same sub-pixel.
     """
     o = np.asarray(offset, dtype=np.float64)
-    idx = np.floor((o + 0.5) * scale).astype(np.int32)
+    idx = np.floor((o + 0.5) * scale + SUBPIXEL_BORDER_TOLERANCE).astype(np.int32)
     return np.clip(idx, 0, scale - 1)
 
 

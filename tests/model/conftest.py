@@ -1,0 +1,15 @@
+import pytest
+import torch
+
+from model_helpers import TINY, randomise
+from mnss_kit.model.config import ModelConfig
+from mnss_kit.model.families import build_model
+
+
+@pytest.fixture
+def tiny_model():
+    def build(**overrides):
+        torch.manual_seed(0)
+        return randomise(build_model(ModelConfig(**{**TINY, **overrides}))).eval()
+
+    return build

@@ -1,0 +1,87 @@
+"""Checkpoints: round trip, names resolve to the zoo, bad files are one-line user errors."""
+
+import pytest
+import torch
+
+from model_helpers import TINY, make_frame, randomise
+from mnss_kit.errors import UserError
+from mnss_kit.model import checkpoint
+from mnss_kit.model.config import ModelConfig
+from mnss_kit.model.families import build_model
+
+RECORD = {"jitter_pattern": "mnss", "data_fingerprint": "abc123", "training": {"steps": 10, "loss": 0.5}}
+
+
+@pytest.fixture
+def model():
+    return randomise(build_model(ModelConfig(scale=3, recon_resolution="hr", **TINY))).eval()
+
+
+@pytest.fixture
+def saved(tmp_path, model):
+    return checkpoint.save(tmp_path / "m.pt", model, RECORD)
+
+
+def test_round_trip(saved, model):
+    loaded, record = checkpoint.load(saved)
+    frame = make_frame()
+    assert torch.equal(loaded(frame, None)[0], model(frame, None)[0])
+    assert record["format"] == checkpoint.FORMAT_TAG and record["version"] == checkpoint.FORMAT_VERSION
+    assert record["family"] == "mnss" and record["scale"] == 3 and record["config"]["recon_resolution"] == "hr"
+    assert {k: record[k] for k in RECORD} == RECORD
+    assert record["macs_per_pixel"] > 0 and record["params"] == sum(p.numel() for p in model.parameters())
+    assert record["code_version"].startswith(__import__("mnss_kit").__version__)
+    assert list(saved.parent.iterdir()) == [saved]  # no temporary file left behind
+
+
+def test_bare_name_resolves_to_the_zoo(tmp_path, monkeypatch, model):
+    monkeypatch.setattr(checkpoint, "ZOO_DIR", tmp_path)
+    checkpoint.save(tmp_path / "mnss_x9.pt", model, RECORD)
+    assert checkpoint.shipped_names() == ["mnss_x9"]
+    _, record = checkpoint.load("mnss_x9")
+    assert record["data_fingerprint"] == "abc123"
+    with pytest.raises(UserError, match="mnss_x9"):
+        checkpoint.load("mnss_x8")
+
+
+def test_record_must_be_plain_data(tmp_path, model):
+    with pytest.raises(TypeError, match="plain data"):
+        checkpoint.save(tmp_path / "m.pt", model, {"training": {"when": object()}})
+    assert not (tmp_path / "m.pt").exists()
+
+
+def corrupt(path, kind):
+    data = path.read_bytes()
+    if kind == "truncated":
+        path.write_bytes(data[: len(data) // 2])
+    elif kind == "text":
+        path.write_text("hello")
+    elif kind == "empty":
+        path.write_bytes(b"")
+    elif kind == "foreign":
+        torch.save({"weights": torch.zeros(3)}, path)
+    elif kind == "newer":
+        payload = torch.load(path, weights_only=True)
+        payload["record"]["version"] = checkpoint.FORMAT_VERSION + 1
+        torch.save(payload, path)
+    elif kind == "mismatched":
+        payload = torch.load(path, weights_only=True)
+        payload["record"]["config"]["recon_width"] = 7
+        torch.save(payload, path)
+
+
+@pytest.mark.parametrize(
+    "kind, message",
+    [("truncated", "not a readable"), ("text", "not a readable"), ("empty", "not a readable"),
+     ("foreign", "not an mnss-kit checkpoint"), ("newer", "upgrade"), ("mismatched", "do not match")],
+)
+def test_bad_files_are_one_line_user_errors(saved, kind, message):
+    corrupt(saved, kind)
+    with pytest.raises(UserError, match=message) as err:
+        checkpoint.load(saved)
+    assert "\n" not in str(err.value)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(UserError, match="no checkpoint"):
+        checkpoint.load(tmp_path / "nope.pt")

@@ -1,0 +1,54 @@
+"""Model config files: the shipped ladder loads; the model: section is strict, train:/data: are left alone."""
+
+import pytest
+
+from mnss_kit.errors import UserError
+from mnss_kit.model.config import ModelConfig, config_names, load_model_config
+
+
+@pytest.mark.parametrize("name", config_names())
+def test_shipped_configs_load(name):
+    assert isinstance(load_model_config(name), ModelConfig)
+
+
+def test_ladder_exists():
+    assert {"mnss_x2_tiny", "mnss_x2", "mnss_x2_large", "mnss_x3", "mnss_x2_hrnet"} <= set(config_names())
+
+
+def write(tmp_path, text):
+    path = tmp_path / "m.yaml"
+    path.write_text(text)
+    return path
+
+
+def test_train_and_data_sections_are_ignored(tmp_path):
+    path = write(tmp_path, "schema: 1\nmodel: {scale: 3}\ntrain: {lr: 0.001, anything: [1, 2]}\ndata: {root: x}\n")
+    assert load_model_config(path).scale == 3
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("schema: 1\nmodel: {recon_widht: 8}\n", "recon_widht"),
+        ("schema: 1\nmodel: {}\nextra: 1\n", "extra"),
+        ("model: {}\n", "schema"),
+        ("schema: 2\nmodel: {}\n", "schema"),
+        ("schema: 1\n", "model"),
+        ("schema: 1\nmodel: {family: nope}\n", "family"),
+        ("schema: 1\nmodel: {recon_resolution: mid}\n", "recon_resolution"),
+        ("schema: 1\nmodel: {recon_layers: 1}\n", "recon_layers"),
+    ],
+)
+def test_bad_configs_are_user_errors(tmp_path, text, message):
+    with pytest.raises(UserError, match=message):
+        load_model_config(write(tmp_path, text))
+
+
+def test_overrides(tmp_path):
+    path = write(tmp_path, "schema: 1\nmodel: {recon_width: 8}\n")
+    assert load_model_config(path, ["model.recon_width=12", "train.lr=0.1"]).recon_width == 12
+
+
+def test_unknown_name():
+    with pytest.raises(UserError, match="mnss_x2"):
+        load_model_config("no_such_config")
