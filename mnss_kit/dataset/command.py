@@ -1,0 +1,88 @@
+"""``mnss-kit data``: check a dataset, describe it, or build its decoded cache."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+HELP = "check, describe or cache a dataset (data check | info | cache DIR)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="data_command", metavar="ACTION", required=True)
+    p = sub.add_parser(
+        "check",
+        help="report missing or corrupt files, size/scale mismatches, NaN/Inf and convention mistakes",
+        description="Check a dataset (or one sequence) against docs/dataset.md.  Exit 0: no errors "
+        "(warnings allowed); 1: errors found; 2: not a dataset.",
+    )
+    p.add_argument("dir", type=Path, help="dataset directory or one sequence directory")
+    p.add_argument("--quick", action="store_true", help="check only meta.json, file presence, EXR headers and sizes")
+    p.add_argument("--max-lines", type=int, default=40, metavar="N", help="print at most N problems (default 40)")
+    p = sub.add_parser("info", help="print sizes, frames, scale and buffers of each sequence")
+    p.add_argument("dir", type=Path, help="dataset directory or one sequence directory")
+    p = sub.add_parser("cache", help="decode every buffer once into the training cache")
+    p.add_argument("dir", type=Path, help="dataset directory or one sequence directory")
+    p.add_argument("--cache-dir", type=Path, default=None, help="where to put the cache (default: DIR/.cache)")
+
+
+def run(args: argparse.Namespace) -> int:
+    return {"check": run_check, "info": run_info, "cache": run_cache}[args.data_command](args)
+
+
+def run_check(args: argparse.Namespace) -> int:
+    from .check import check_dataset
+
+    report = check_dataset(args.dir, quick=args.quick)
+    ordered = report.errors + report.warnings
+    for problem in ordered[: max(args.max_lines, 0)]:
+        print(problem.line())
+    hidden = len(ordered) - max(args.max_lines, 0)
+    if hidden > 0:
+        print(f"... and {hidden} more problem(s) (--max-lines to show more)")
+    mode = "quick check" if args.quick else "check"
+    verdict = "FAILED" if report.errors else "OK"
+    print(f"data {mode} {verdict}: {report.summary()}")
+    return 1 if report.errors else 0
+
+
+def run_info(args: argparse.Namespace) -> int:
+    from .cache import dataset_fingerprint, frame_files
+    from .format import find_sequences, read_meta
+
+    rows = [("sequence", "frames", "lr", "hr", "scale", "jitter", "resets", "colour", "depth", "buffers", "MB")]
+    total_frames = total_bytes = 0
+    seqs = find_sequences(args.dir)
+    for seq in seqs:
+        m = read_meta(seq)
+        size = sum(st.st_size for _, st in frame_files(seq))
+        total_frames += m.frame_count
+        total_bytes += size
+        depth = m.depth_encoding + (", reverse-Z" if m.reverse_z and m.depth_encoding == "hardware" else "")
+        buffers = "; ".join(f"{res}: {' '.join(names)}" for res, names in m.buffers.items())
+        rows.append((
+            seq.name, str(m.frame_count), "x".join(map(str, m.lr_size)), "x".join(map(str, m.hr_size)), str(m.scale),
+            m.jitter_pattern, str(sum(f.reset for f in m.frames)), m.color_space, depth, buffers, f"{size / 1e6:.1f}",
+        ))
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    for r in rows:
+        print("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+    print(f"total: {len(seqs)} sequence(s), {total_frames} frames, {total_bytes / 1e6:.1f} MB")
+    print(f"fingerprint: {dataset_fingerprint(args.dir)}")
+    return 0
+
+
+def run_cache(args: argparse.Namespace) -> int:
+    from .cache import default_cache_dir, prepare_caches
+    from .format import BUFFERS, find_sequences, read_meta
+
+    seqs = find_sequences(args.dir)
+    cache_root = args.cache_dir or default_cache_dir(args.dir)
+    total = 0
+    for seq in seqs:
+        meta = read_meta(seq)
+        buffers = [(r, b) for r, names in meta.buffers.items() if r in BUFFERS for b in names if b in BUFFERS[r]]
+        (cache,) = prepare_caches([seq], buffers, cache_root, metas=[meta])
+        total += sum(cache.path(r, b).stat().st_size for r, b in buffers)
+    print(f"cache ready: {cache_root} ({len(seqs)} sequence(s), {total / 1e6:.1f} MB)")
+    return 0

@@ -1,0 +1,281 @@
+"""PyTorch loading: recurrent training windows with scale-aligned crops, and whole sequences for evaluation.
+
+A window of ``T`` consecutive frames of one sequence is a dict of float32
+tensors (``docs/architecture.md``)::
+
+    color (T, 3, h, w)   depth (T, 1, h, w)   motion (T, 2, h, w)   LR, canonical conventions
+    jitter (T, 2)        reset (T,)                                  LR pixels; 1.0 = no history
+    reference (T, 3, H, W)                                           HR target, display values
+    hr_<buffer> (T, C, H, W), lr_<buffer> (T, C, h, w)               optional G-buffers
+
+Crops sit at integer LR pixels, and the HR crop is the same screen area
+(offset and size times the scale), so the jitter offsets stay valid.  Values
+come from ``format.read_buffer`` (canonical conventions), either straight from
+the EXR files or from the decoded cache (``cache.py``; colour then carries
+float16 rounding, below 2.5e-4 for display values).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, Iterator
+
+import numpy as np
+import torch
+from torch.utils.data import Dataset
+
+from ..errors import UserError
+from .cache import SequenceCache, dataset_fingerprint, default_cache_dir, prepare_caches, require_finite
+from .format import REQUIRED_BUFFERS, SequenceMeta, buffer_path, find_sequences, read_buffer, read_meta
+
+log = logging.getLogger(__name__)
+
+# window key -> (resolution, buffer) for the buffers every window carries
+BASE_KEYS = {"color": ("lr", "color"), "depth": ("lr", "depth"), "motion": ("lr", "motion"), "reference": ("hr", "reference")}
+
+
+@dataclass(frozen=True)
+class Crop:
+    """A rectangle in pixels: left, top, width, height."""
+
+    x: int
+    y: int
+    width: int
+    height: int
+
+    def scaled(self, scale: int) -> Crop:
+        return Crop(self.x * scale, self.y * scale, self.width * scale, self.height * scale)
+
+
+class ExrFrames:
+    """Reads frames straight from the EXR files (decodes on every call)."""
+
+    def __init__(self, seq_dir: Path, meta: SequenceMeta):
+        self.seq_dir, self.meta = seq_dir, meta
+
+    def read(self, res: str, buffer: str, start: int, count: int, crop: Crop) -> np.ndarray:
+        """``(count, C, crop.height, crop.width)`` float32 of frames ``start .. start+count-1``."""
+        out = []
+        for frame in self.meta.frames[start : start + count]:
+            image = read_buffer(self.seq_dir, self.meta, res, buffer, frame.index)
+            require_finite(image, buffer_path(self.seq_dir, res, buffer, frame.index))
+            out.append(image[crop.y : crop.y + crop.height, crop.x : crop.x + crop.width].transpose(2, 0, 1))
+        return np.ascontiguousarray(np.stack(out), dtype=np.float32)
+
+
+class CachedFrames:
+    """Reads frames from the memory-mapped cache; maps are opened lazily in each worker process."""
+
+    def __init__(self, cache: SequenceCache):
+        self.cache = cache
+        self._maps: dict[tuple[str, str], np.ndarray] = {}
+
+    def __getstate__(self):  # a memmap would be pickled by value: send only the paths to workers
+        return {"cache": self.cache, "_maps": {}}
+
+    def read(self, res: str, buffer: str, start: int, count: int, crop: Crop) -> np.ndarray:
+        key = (res, buffer)
+        if key not in self._maps:
+            self._maps[key] = self.cache.open(res, buffer)
+        block = self._maps[key][start : start + count, :, crop.y : crop.y + crop.height, crop.x : crop.x + crop.width]
+        return np.ascontiguousarray(block, dtype=np.float32)
+
+
+@dataclass
+class LoadedSequence:
+    seq_dir: Path
+    meta: SequenceMeta
+    source: ExrFrames | CachedFrames
+
+    @property
+    def name(self) -> str:
+        return self.seq_dir.name
+
+    def frames(self, start: int, count: int, lr_crop: Crop, extra_keys: dict[str, tuple[str, str]], reset_first: bool) -> dict[str, np.ndarray]:
+        """Frames ``start .. start+count-1`` as float32 arrays with a leading time axis."""
+        scale = self.meta.scale
+        out = {}
+        for key, (res, buffer) in {**BASE_KEYS, **extra_keys}.items():
+            crop = lr_crop if res == "lr" else lr_crop.scaled(scale)
+            out[key] = self.source.read(res, buffer, start, count, crop)
+        metas = self.meta.frames[start : start + count]
+        out["jitter"] = np.array([f.jitter for f in metas], dtype=np.float32).reshape(count, 2)
+        reset = np.array([f.reset for f in metas], dtype=np.float32)
+        if start == 0 or reset_first:  # nothing before the first frame of a sequence or window
+            reset[0] = 1.0
+        out["reset"] = reset
+        return out
+
+    def full_frame(self) -> Crop:
+        w, h = self.meta.lr_size
+        return Crop(0, 0, w, h)
+
+
+def extra_buffer_keys(hr_buffers: Iterable[str], lr_buffers: Iterable[str]) -> dict[str, tuple[str, str]]:
+    """``{"hr_depth": ("hr", "depth"), ...}`` for the optional G-buffers; the base buffers are refused."""
+    keys = {}
+    for res, names in (("hr", hr_buffers), ("lr", lr_buffers)):
+        for name in names:
+            if name in REQUIRED_BUFFERS[res]:
+                raise UserError(f"{res}/{name} is always loaded; do not request it as an extra buffer")
+            keys[f"{res}_{name}"] = (res, name)
+    return keys
+
+
+def open_sequences(
+    root: str | Path | Iterable[str | Path],
+    extra_keys: dict[str, tuple[str, str]],
+    cache: bool,
+    cache_dir: str | Path | None,
+    progress: bool = True,
+) -> list[LoadedSequence]:
+    """Every sequence under ``root`` (a dataset, a sequence, or a list of them), checked for the wanted buffers."""
+    roots = [root] if isinstance(root, (str, Path)) else list(root)
+    seq_dirs = [s for r in roots for s in find_sequences(r)]
+    metas = [read_meta(s) for s in seq_dirs]
+    wanted = list(BASE_KEYS.values()) + list(extra_keys.values())
+    for seq_dir, meta in zip(seq_dirs, metas):
+        for index, frame in enumerate(meta.frames):
+            if frame.index != index:
+                raise UserError(f"{seq_dir}: frame {index} in meta.json has index {frame.index}; frames must be 0, 1, 2, ... in order")
+        for res, buffer in wanted:
+            if buffer not in meta.buffers.get(res, []):
+                raise UserError(f"{seq_dir}: buffer {res}/{buffer} is not in this sequence (meta.json buffers.{res})")
+    if not cache:
+        return [LoadedSequence(s, m, ExrFrames(s, m)) for s, m in zip(seq_dirs, metas)]
+    cache_root = Path(cache_dir) if cache_dir else default_cache_dir(roots[0])
+    caches = prepare_caches(seq_dirs, wanted, cache_root, progress=progress, metas=metas)
+    return [LoadedSequence(s, m, CachedFrames(c)) for s, m, c in zip(seq_dirs, metas, caches)]
+
+
+class WindowDataset(Dataset):
+    """Training windows of ``window`` consecutive frames, never spanning two sequences.
+
+    ``crop`` is ``(width, height)`` in LR pixels (or ``None`` for full frames);
+    its position is drawn per window from ``(seed, epoch, index)``, so it does
+    not depend on the worker that loads it.  Call ``set_epoch`` before each
+    epoch (with ``persistent_workers=False``) to draw new crops.  The dataset's
+    ``reset`` flags are kept; ``window_starts_reset`` also sets reset on the
+    first frame of every window, since the history before it is not available.
+    """
+
+    def __init__(
+        self,
+        root: str | Path | Iterable[str | Path],
+        window: int,
+        crop: tuple[int, int] | None = None,
+        *,
+        hr_buffers: Iterable[str] = (),
+        lr_buffers: Iterable[str] = (),
+        seed: int = 0,
+        stride: int = 1,
+        window_starts_reset: bool = True,
+        cache: bool = True,
+        cache_dir: str | Path | None = None,
+        progress: bool = True,
+    ):
+        if window < 1 or stride < 1:
+            raise UserError(f"window and stride must be >= 1, got window={window} stride={stride}")
+        self.window, self.seed, self.epoch = window, seed, 0
+        self.window_starts_reset = window_starts_reset
+        self.extra_keys = extra_buffer_keys(hr_buffers, lr_buffers)
+        self.sequences = open_sequences(root, self.extra_keys, cache, cache_dir, progress)
+        scales = {s.meta.scale for s in self.sequences}
+        if len(scales) != 1:
+            raise UserError(f"sequences have different scales {sorted(scales)}; train one scale at a time")
+        self.scale = scales.pop()
+        self.crop_size = self._check_crop(crop)
+        self.windows = [(i, start) for i, s in enumerate(self.sequences) for start in range(0, s.meta.frame_count - window + 1, stride)]
+        for s in self.sequences:
+            if s.meta.frame_count < window:
+                log.warning("sequence %s has %d frames, fewer than the window of %d: skipped", s.name, s.meta.frame_count, window)
+        if not self.windows:
+            raise UserError(f"no sequence has the {window} frames a window needs")
+
+    def _check_crop(self, crop: tuple[int, int] | None) -> tuple[int, int] | None:
+        if crop is None:
+            return None
+        cw, ch = (int(crop), int(crop)) if np.isscalar(crop) else (int(crop[0]), int(crop[1]))
+        for s in self.sequences:
+            w, h = s.meta.lr_size
+            if not (0 < cw <= w and 0 < ch <= h):
+                raise UserError(f"crop {cw}x{ch} (LR pixels) does not fit sequence {s.name} of LR size {w}x{h}")
+        return cw, ch
+
+    def __len__(self) -> int:
+        return len(self.windows)
+
+    def set_epoch(self, epoch: int) -> None:
+        self.epoch = int(epoch)
+
+    def window_info(self, index: int) -> tuple[str, int]:
+        """(sequence name, first frame) of window ``index``."""
+        seq, start = self.windows[index]
+        return self.sequences[seq].name, start
+
+    def crop_for(self, index: int) -> Crop:
+        """The LR crop of window ``index`` this epoch (the HR crop is ``crop.scaled(scale)``)."""
+        seq = self.sequences[self.windows[index][0]]
+        if self.crop_size is None:
+            return seq.full_frame()
+        cw, ch = self.crop_size
+        w, h = seq.meta.lr_size
+        rng = np.random.default_rng([self.seed, self.epoch, index])
+        return Crop(int(rng.integers(0, w - cw + 1)), int(rng.integers(0, h - ch + 1)), cw, ch)
+
+    def __getitem__(self, index: int) -> dict[str, torch.Tensor]:
+        seq, start = self.windows[index]
+        arrays = self.sequences[seq].frames(start, self.window, self.crop_for(index), self.extra_keys, self.window_starts_reset)
+        return {k: torch.from_numpy(v) for k, v in arrays.items()}
+
+    def fingerprint(self) -> str:
+        return dataset_fingerprint([s.seq_dir for s in self.sequences])
+
+
+class SequenceFrames:
+    """One sequence, full frames, in order: each item is a frame dict with a leading batch axis of 1.
+
+    The shapes are a window's with ``T = 1`` read as ``N = 1`` (``color``
+    (1, 3, h, w), ``jitter`` (1, 2), ``reset`` (1,), ...), ready for
+    ``model(frame, state)``.  Frame 0 always has reset set.
+    """
+
+    def __init__(self, sequence: LoadedSequence, extra_keys: dict[str, tuple[str, str]]):
+        self.sequence, self.extra_keys = sequence, extra_keys
+
+    @property
+    def name(self) -> str:
+        return self.sequence.name
+
+    @property
+    def meta(self) -> SequenceMeta:
+        return self.sequence.meta
+
+    def __len__(self) -> int:
+        return self.meta.frame_count
+
+    def __iter__(self) -> Iterator[dict[str, torch.Tensor]]:
+        crop = self.sequence.full_frame()
+        for t in range(len(self)):
+            arrays = self.sequence.frames(t, 1, crop, self.extra_keys, reset_first=False)
+            yield {k: torch.from_numpy(v) for k, v in arrays.items()}
+
+
+def eval_sequences(
+    root: str | Path | Iterable[str | Path],
+    *,
+    hr_buffers: Iterable[str] = (),
+    lr_buffers: Iterable[str] = (),
+    cache: bool = False,
+    cache_dir: str | Path | None = None,
+    progress: bool = True,
+) -> list[SequenceFrames]:
+    """Every sequence under ``root`` for evaluation or calibration, sorted by directory.
+
+    Reads the EXR files by default (exact values); ``cache=True`` reuses the
+    training cache instead.
+    """
+    extra = extra_buffer_keys(hr_buffers, lr_buffers)
+    return [SequenceFrames(s, extra) for s in open_sequences(root, extra, cache, cache_dir, progress)]

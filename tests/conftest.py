@@ -1,0 +1,30 @@
+"""Fixtures shared by every stage's tests."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from mnss_kit.dataset.synthetic import write_synthetic_sequence
+
+SYNTHETIC_LR_SIZE = (32, 24)  # (width, height)
+SYNTHETIC_SCALE = 2
+SYNTHETIC_FRAMES = 8
+SYNTHETIC_CUT_AT = 5
+
+
+@pytest.fixture(scope="session")
+def synthetic_dataset(tmp_path_factory) -> Path:
+    """A dataset directory holding two analytic sequences; treat it as read-only (copy it to change it).
+
+    ``pan``: 8 frames of a panning camera and a moving square, LR 32x24 -> HR 64x48 (scale 2,
+    mnss jitter), reset only on frame 0.  ``pan_cut``: the same scene with a camera cut at
+    frame 5 (reset on frames 0 and 5).  Buffers: lr color/depth/motion, hr reference/depth/motion.
+    Loaders writing a cache should be given a ``cache_dir`` outside this directory.
+    """
+    root = tmp_path_factory.mktemp("synthetic_dataset")
+    common = dict(lr_size=SYNTHETIC_LR_SIZE, scale=SYNTHETIC_SCALE, frames=SYNTHETIC_FRAMES)
+    write_synthetic_sequence(root / "pan", name="pan", **common)
+    write_synthetic_sequence(root / "pan_cut", name="pan_cut", cut_at=SYNTHETIC_CUT_AT, **common)
+    return root
