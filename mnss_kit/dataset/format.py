@@ -80,8 +80,9 @@ class FrameMeta:
     jitter: tuple[float, float]  # LR pixels, +x right, +y down
     reset: bool = False  # camera cut: history is invalid
     time: float = 0.0
-    view: list[float] = field(default_factory=list)  # 4x4 row-major world->view
-    proj: list[float] = field(default_factory=list)  # 4x4 row-major, unjittered
+    # 4x4 matrices flattened row-major, column-vector convention (clip = proj @ view @ world)
+    view: list[float] = field(default_factory=list)  # world -> view
+    proj: list[float] = field(default_factory=list)  # view -> clip, unjittered
 
 
 @dataclass
@@ -145,7 +146,7 @@ def find_sequences(root: str | Path) -> list[Path]:
         raise UserError(f"dataset directory not found: {root}")
     if (root / META_FILE).is_file():
         return [root]
-    seqs = sorted(p.parent for p in root.glob(f"*/{META_FILE}"))
+    seqs = sorted(p.parent for p in root.glob(f"*/{META_FILE}") if not p.parent.name.startswith("."))
     if not seqs:
         raise UserError(f"no dataset sequences in {root} (expected {META_FILE} in it or its subdirectories)")
     return seqs

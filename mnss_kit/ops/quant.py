@@ -16,15 +16,24 @@ data; every function here takes a profile and branches on its fields only.
 ``tflite_reference``  LiteRT reference kernels (BUILTIN_REF).  The real
     multiplier becomes an int32 Q31 mantissa and a power-of-two shift
     (:func:`quantize_multiplier`); the product is
-    ``rounding_divide_by_pot(saturating_rounding_doubling_high_mul(x << left, m), right)``,
-    both roundings ties away from zero ("double rounding").
+    ``rounding_divide_by_pot(saturating_rounding_doubling_high_mul(x << left, m), right)``:
+    two roundings ("double rounding"), the high multiply's ties toward
+    +infinity and the shift's ties away from zero.
 ``tflite_optimized``  LiteRT optimized builtin kernels (BUILTIN_WITHOUT_DEFAULT_DELEGATES):
     the same high multiply, but the final right shift rounds half up
-    (``(x + 2^(n-1)) >> n``).
+    (``(x + 2^(n-1)) >> n``).  These kernels are vector code: the formulas
+    here are those of the vector body; a tail of fewer values than one
+    vector (8 or 16) runs the reference formula.  ``mnss_kit.ops.quant_ops``
+    reproduces that split position by position.
 ``xnnpack``  XNNPACK (LiteRT AUTO): float32 ``scale = s_in * s_w / s_out``,
     ``float32(acc) * scale`` rounded half to even, then zero point and clamp.
 ``onnxruntime``  ONNX Runtime CPU (MLAS): float32 scale, round half to even
     after the multiply; QuantizeLinear divides by the scale.
+
+ADD, QUANTIZE and the LOGISTIC/TANH tables have per-profile formulas too (see
+:func:`add`, :func:`quantize`, :func:`lookup_table`).  Every profile here was
+checked bit for bit against its runtime on x86-64 (ai-edge-litert 2.3.0,
+onnxruntime 1.23) by ``tests/quantize/test_profiles.py``.
 
 All integer arithmetic is carried out in int64 numpy arrays so intermediate
 products never overflow; results are returned in the dtype the runtime stores.
@@ -65,8 +74,7 @@ class Profile:
     table_rounding
         Rounding used when a 256-entry table is built in float (LOGISTIC, TANH).
     add
-        ``"q31"``: TFLite integer ADD (inputs shifted left by 20 bits and rescaled
-        with Q31 multipliers); ``"float32"``: each input rescaled in float32.
+        One of :data:`ADD_METHODS`, see :func:`add`.
     """
 
     name: str
@@ -80,6 +88,8 @@ class Profile:
     description: str
 
 
+ADD_METHODS = ("q31_double_round", "q31_single_round_inputs", "xnnpack_fixed_point", "float32_fma")
+
 PROFILES: dict[str, Profile] = {
     "tflite_reference": Profile(
         name="tflite_reference",
@@ -89,7 +99,7 @@ PROFILES: dict[str, Profile] = {
         quantize_reciprocal=False,
         quantize_rounding="away_from_zero",
         table_rounding="away_from_zero",
-        add="q31",
+        add="q31_double_round",
         description="LiteRT reference kernels (BUILTIN_REF)",
     ),
     "tflite_optimized": Profile(
@@ -97,11 +107,11 @@ PROFILES: dict[str, Profile] = {
         multiplier="q31",
         shift_rounding="half_up",
         float_rounding="away_from_zero",
-        quantize_reciprocal=False,
-        quantize_rounding="away_from_zero",
+        quantize_reciprocal=True,
+        quantize_rounding="half_even",
         table_rounding="away_from_zero",
-        add="q31",
-        description="LiteRT optimized builtin kernels (BUILTIN_WITHOUT_DEFAULT_DELEGATES)",
+        add="q31_single_round_inputs",
+        description="LiteRT optimized builtin kernels (BUILTIN_WITHOUT_DEFAULT_DELEGATES), x86-64",
     ),
     "xnnpack": Profile(
         name="xnnpack",
@@ -111,7 +121,7 @@ PROFILES: dict[str, Profile] = {
         quantize_reciprocal=True,
         quantize_rounding="half_even",
         table_rounding="half_even",
-        add="float32",
+        add="xnnpack_fixed_point",
         description="XNNPACK (LiteRT AUTO)",
     ),
     "onnxruntime": Profile(
@@ -122,8 +132,8 @@ PROFILES: dict[str, Profile] = {
         quantize_reciprocal=False,
         quantize_rounding="half_even",
         table_rounding="half_even",
-        add="float32",
-        description="ONNX Runtime CPU execution provider (MLAS)",
+        add="float32_fma",
+        description="ONNX Runtime CPU execution provider (MLAS, QDQ fused to QLinear ops), x86-64 with FMA",
     ),
 }
 
@@ -173,7 +183,10 @@ def _trunc_div(a: np.ndarray, d: int) -> np.ndarray:
 
 
 def saturating_rounding_doubling_high_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """gemmlowp ``SaturatingRoundingDoublingHighMul``: ``round(a * b / 2^31)``, ties away from zero.
+    """gemmlowp ``SaturatingRoundingDoublingHighMul``: ``round(a * b / 2^31)``, ties toward +infinity.
+
+    (gemmlowp adds a nudge of ``2^30`` or ``1 - 2^30`` and divides with C
+    truncation, so -1.5 becomes -1 and 1.5 becomes 2.)
 
     ``a``, ``b``: int32 values (any integer dtype, broadcastable).  Returns int64
     holding int32 values; the one overflow case ``a = b = -2^31`` saturates to
@@ -280,6 +293,14 @@ def multiply_by_quantized_multiplier(x: np.ndarray, multiplier: np.ndarray, shif
     raise ValueError(f"unknown shift rounding {shift_rounding!r}")
 
 
+def multiply_by_quantized_multiplier_single_round(x: np.ndarray, multiplier: int, shift: int) -> np.ndarray:
+    """``round(x * m / 2^(31 - shift))`` rounded once, ties toward +infinity.  ``shift <= 0``; int64 result."""
+    x = np.asarray(x, dtype=np.int64)
+    total = 31 - int(shift)
+    # |x| < 2^31 and m < 2^31, so x * m fits int64.
+    return (x * np.int64(multiplier) + (np.int64(1) << (total - 1))) >> total
+
+
 # ---------------------------------------------------------------------------
 # Tensors
 
@@ -382,6 +403,49 @@ def quantize_bias(bias: np.ndarray, input_scale: float, weight_scales: np.ndarra
 
 
 # ---------------------------------------------------------------------------
+# Integer accumulation (exact; slow reference)
+
+
+def conv2d_accumulate(
+    x: np.ndarray,
+    x_zero_point: int,
+    w: np.ndarray,
+    bias: np.ndarray,
+    stride: tuple[int, int] = (1, 1),
+    padding: tuple[int, int, int, int] = (0, 0, 0, 0),
+    dilation: tuple[int, int] = (1, 1),
+    depthwise: bool = False,
+) -> np.ndarray:
+    """int32 accumulator of CONV_2D / DEPTHWISE_CONV_2D: ``sum((x - x_zp) * w) + bias``.
+
+    ``x``: (N, H, W, Cin) integer.  ``w``: (Cout, KH, KW, Cin) int8 (OHWI) for a
+    convolution, (1, KH, KW, C) for a depthwise one (multiplier 1).  ``bias``:
+    (Cout,) int32.  ``padding`` = (top, bottom, left, right); padded positions
+    hold the input zero point, i.e. contribute 0.  Returns int64 (N, OH, OW, Cout)
+    holding the int32 accumulator (the runtimes assume no int32 overflow).
+    """
+    xs = np.asarray(x, dtype=np.int64) - x_zero_point
+    top, bottom, left, right = padding
+    xs = np.pad(xs, ((0, 0), (top, bottom), (left, right), (0, 0)))
+    w = np.asarray(w, dtype=np.int64)
+    _, kh, kw, _ = w.shape
+    (sy, sx), (dy, dx) = stride, dilation
+    oh = (xs.shape[1] - dy * (kh - 1) - 1) // sy + 1
+    ow = (xs.shape[2] - dx * (kw - 1) - 1) // sx + 1
+    cout = w.shape[3] if depthwise else w.shape[0]
+    acc = np.zeros((xs.shape[0], oh, ow, cout), dtype=np.int64)
+    for ky in range(kh):
+        for kx in range(kw):
+            y0, x0 = ky * dy, kx * dx
+            patch = xs[:, y0 : y0 + sy * (oh - 1) + 1 : sy, x0 : x0 + sx * (ow - 1) + 1 : sx, :]
+            if depthwise:
+                acc += patch * w[0, ky, kx, :]
+            else:
+                acc += np.einsum("nhwc,oc->nhwo", patch, w[:, ky, kx, :])
+    return acc + np.asarray(bias, dtype=np.int64)
+
+
+# ---------------------------------------------------------------------------
 # Requantization
 
 
@@ -451,32 +515,73 @@ def add(
 ) -> np.ndarray:
     """Quantized ADD of two broadcastable integer tensors; params are ``(scale, zero_point)``.
 
-    ``q31`` (TFLite): both inputs, offset by their zero points and shifted left
-    by 20 bits (int8), are rescaled to ``2 * max(s_a, s_b)`` with Q31
-    multipliers (shift rounding ties away from zero), summed, and rescaled to
-    the output scale.  ``float32``: ``round(s_a/s_o * (a - za) + s_b/s_o * (b - zb)) + zo``
-    computed in float32 with round half to even.
+    The profile's ``add`` method:
+
+    ``q31_double_round`` (TFLite reference)
+        Each input, offset by its zero point and shifted left by 20 bits
+        (int8), is rescaled to ``2 * max(s_a, s_b)`` with a Q31 multiplier;
+        the sum is rescaled to the output scale.  All three rescales use
+        double rounding (ties away from zero).
+    ``q31_single_round_inputs`` (TFLite optimized, x86-64)
+        As above, but the two input rescales round once, half up:
+        ``(x * m + 2^(30 - shift)) >> (31 - shift)``.
+    ``xnnpack_fixed_point``
+        ``r = s_x / s_o`` in float32; ``shift = 20 - exponent(max(r_a, r_b))``;
+        ``m_x = rint(r_x * 2^shift)``; the int32 sum
+        ``2^(shift-1) - m_a z_a - m_b z_b + m_a a + m_b b`` is shifted right
+        arithmetically by ``shift`` (ties toward +infinity).
+    ``float32_fma`` (ONNX Runtime MLAS)
+        ``r_x = s_x / s_o`` and ``bias = z_o - r_a z_a - r_b z_b`` in float32;
+        ``rint(fma(a, r_a, fma(b, r_b, bias)))`` (round half to even), with
+        ``a``, ``b`` the raw integers.
     """
     p = get_profile(profile)
     (sa, za), (sb, zb), (so, zo) = a_params, b_params, out_params
     sa, sb, so = np.float32(sa), np.float32(sb), np.float32(so)
-    a = np.asarray(a, dtype=np.int64) - za
-    b = np.asarray(b, dtype=np.int64) - zb
-    if p.add == "q31":
+    a = np.asarray(a, dtype=np.int64)
+    b = np.asarray(b, dtype=np.int64)
+    if p.add in ("q31_double_round", "q31_single_round_inputs"):
         left = ADD_LEFT_SHIFT[np.dtype(dtype).name]
         twice_max = 2.0 * max(float(sa), float(sb))
         ma, sha = quantize_multiplier_smaller_than_one(float(sa) / twice_max)
         mb, shb = quantize_multiplier_smaller_than_one(float(sb) / twice_max)
         mo, sho = quantize_multiplier_smaller_than_one(twice_max / ((1 << left) * float(so)))
-        scaled_a = multiply_by_quantized_multiplier(a << left, ma, sha, "away_from_zero")
-        scaled_b = multiply_by_quantized_multiplier(b << left, mb, shb, "away_from_zero")
-        out = multiply_by_quantized_multiplier(scaled_a + scaled_b, mo, sho, "away_from_zero")
-    else:
+        if p.add == "q31_double_round":
+            scaled_a = multiply_by_quantized_multiplier((a - za) << left, ma, sha, "away_from_zero")
+            scaled_b = multiply_by_quantized_multiplier((b - zb) << left, mb, shb, "away_from_zero")
+        else:
+            scaled_a = multiply_by_quantized_multiplier_single_round((a - za) << left, ma, sha)
+            scaled_b = multiply_by_quantized_multiplier_single_round((b - zb) << left, mb, shb)
+        out = multiply_by_quantized_multiplier(scaled_a + scaled_b, mo, sho, "away_from_zero") + zo
+    elif p.add == "xnnpack_fixed_point":
         ra, rb = np.float32(sa / so), np.float32(sb / so)
-        total = (a.astype(np.float32) * ra).astype(np.float32) + (b.astype(np.float32) * rb).astype(np.float32)
-        out = round_float(total.astype(np.float32), p.float_rounding)
+        exponent = int(np.array(max(ra, rb), dtype=np.float32).view(np.uint32) >> 23) - 127
+        shift = 20 - exponent
+        ma = int(np.rint(np.float64(ra) * 2.0**shift))  # exact power-of-two scaling, then round half even
+        mb = int(np.rint(np.float64(rb) * 2.0**shift))
+        bias = (1 << (shift - 1)) - ma * za - mb * zb
+        out = ((bias + a * ma + b * mb) >> shift) + zo
+    elif p.add == "float32_fma":
+        ra, rb = np.float32(sa / so), np.float32(sb / so)
+        bias = np.float32(np.float32(np.float32(zo) - np.float32(ra * np.float32(za))) - np.float32(rb * np.float32(zb)))
+        inner = fma_f32(b.astype(np.float32), rb, bias)
+        out = round_float(fma_f32(a.astype(np.float32), ra, inner), p.float_rounding)
+    else:
+        raise ValueError(f"unknown add method {p.add!r}")
     lo, hi = clamp if clamp is not None else qrange(dtype)
-    return np.clip(out + zo, lo, hi).astype(dtype)
+    return np.clip(out, lo, hi).astype(dtype)
+
+
+def fma_f32(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Fused multiply-add of float32 values, rounded once to float32.
+
+    Emulated in float64: the product of two float32 is exact there, and the
+    sum is rounded first to float64 and then to float32, which can only
+    differ from a true single rounding when the float64 result sits exactly
+    on a float32 tie (not reachable with int8 operands and scales in use).
+    """
+    a, b, c = (np.asarray(v, dtype=np.float64) for v in (a, b, c))
+    return (a * b + c).astype(np.float32)
 
 
 def lookup_table(fn, in_params: tuple[float, int], out_params: tuple[float, int], profile: str | Profile) -> np.ndarray:
@@ -495,9 +600,10 @@ def lookup_table(fn, in_params: tuple[float, int], out_params: tuple[float, int]
 
 
 def sigmoid_f32(x: np.ndarray) -> np.ndarray:
-    """``1 / (1 + exp(-x))`` in float32."""
+    """``1 / (1 + exp(-x))`` in float32 (exp overflow gives 1/inf = 0, the right limit)."""
     x = np.asarray(x, dtype=np.float32)
-    return (np.float32(1.0) / (np.float32(1.0) + np.exp(-x))).astype(np.float32)
+    with np.errstate(over="ignore"):
+        return (np.float32(1.0) / (np.float32(1.0) + np.exp(-x))).astype(np.float32)
 
 
 def tanh_f32(x: np.ndarray) -> np.ndarray:
