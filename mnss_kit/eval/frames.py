@@ -1,0 +1,60 @@
+"""Full frames of a sequence, in order, for evaluation.
+
+The single place where evaluation reads data.  Frames come from the dataset
+loader's evaluation iterator (``mnss_kit.dataset.loader.eval_sequences``:
+canonical conventions, NaN checks, every optional G-buffer the sequence has),
+and are split here into the model inputs and the numpy buffers the metrics
+need.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+import torch
+
+from ..dataset import format as fmt
+from ..dataset.loader import eval_sequences
+from ..ops.warp import upsample_motion
+
+
+@dataclass
+class EvalFrame:
+    index: int
+    reset: bool
+    inputs: dict[str, torch.Tensor]  # model inputs (loader keys, batch of one), no reference
+    reference: np.ndarray  # (H, W, 3) display values
+    hr_depth: np.ndarray  # (H, W, 1) canonical depth (HR buffer, else LR repeated)
+    hr_motion: np.ndarray  # (H, W, 2) HR pixels (HR buffer, else upsampled LR motion)
+
+
+def frame_count(meta: fmt.SequenceMeta, max_frames: int | None) -> int:
+    return meta.frame_count if max_frames is None else min(meta.frame_count, max_frames)
+
+
+def iter_frames(seq_dir: Path, meta: fmt.SequenceMeta, max_frames: int | None = None) -> Iterator[EvalFrame]:
+    """Frames ``0 .. n-1`` of one sequence with all its buffers; the first one always has reset set."""
+    hr_extra = [b for b in meta.buffers.get("hr", []) if b not in fmt.REQUIRED_BUFFERS["hr"]]
+    lr_extra = [b for b in meta.buffers.get("lr", []) if b not in fmt.REQUIRED_BUFFERS["lr"]]
+    (sequence,) = eval_sequences(seq_dir, hr_buffers=hr_extra, lr_buffers=lr_extra, progress=False)
+    s = meta.scale
+    for t, frame in zip(range(frame_count(meta, max_frames)), sequence):
+        inputs = {k: v for k, v in frame.items() if k != "reference"}
+        if "hr_depth" in inputs:
+            hr_depth = _image(inputs["hr_depth"])
+        else:  # nearest, so object edges keep one depth or the other
+            hr_depth = np.repeat(np.repeat(_image(inputs["depth"]), s, axis=0), s, axis=1)
+        if "hr_motion" in inputs:
+            hr_motion = _image(inputs["hr_motion"])
+        else:
+            hr_motion = upsample_motion(_image(inputs["motion"]), s)
+        reset = bool(inputs["reset"][0] > 0.5)
+        yield EvalFrame(t, reset, inputs, _image(frame["reference"]), hr_depth, hr_motion)
+
+
+def _image(tensor: torch.Tensor) -> np.ndarray:
+    """``(1, C, H, W)`` -> ``(H, W, C)`` float32."""
+    return np.ascontiguousarray(tensor[0].permute(1, 2, 0).numpy(), dtype=np.float32)

@@ -1,0 +1,51 @@
+"""Per-frame methods built from a model: ``method(frame, state) -> (output, aux, state)``.
+
+``model_method``       the model as it runs in a game (recurrent history).
+``no_history_method``  the same weights with history ignored: every frame is
+                       a reset, so the model sees only the current LR frame
+                       (the single-frame ablation).
+``default_methods``    model, model_nohist and the baselines, in that order.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import torch
+
+from .baselines import baseline_methods
+
+Method = Callable[[dict, Any], tuple]
+
+
+def model_method(model: torch.nn.Module) -> Method:
+    """The model with its recurrent state; ``state=None`` starts an empty history."""
+
+    def run(frame: dict, state):
+        if state is None:
+            state = model.initial_state(frame)
+        return model(frame, state)
+
+    return run
+
+
+def no_history_method(model: torch.nn.Module) -> Method:
+    """The model with a reset forced on every frame (same weights, history never used)."""
+
+    def run(frame: dict, state):
+        frame = dict(frame, reset=torch.ones_like(frame["reset"]))
+        output, aux, _ = model(frame, model.initial_state(frame))
+        return output, aux, None
+
+    return run
+
+
+def default_methods(model: torch.nn.Module | None, scale: int) -> dict[str, Method]:
+    """``{"model", "model_nohist", "bicubic", "taau"}`` (baselines only when ``model`` is None)."""
+    methods: dict[str, Method] = {}
+    if model is not None:
+        model.eval()
+        methods["model"] = model_method(model)
+        methods["model_nohist"] = no_history_method(model)
+    methods.update(baseline_methods(scale))
+    return methods
