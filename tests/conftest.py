@@ -8,6 +8,16 @@ import pytest
 
 from mnss_kit.dataset.synthetic import write_synthetic_sequence
 
+
+
+def pytest_configure(config):
+    # Test tensors are tiny: a single intra-op thread avoids OpenMP spin-up and contention,
+    # which on a 2-core machine costs more than the work itself.
+    import torch
+
+    torch.set_num_threads(1)
+
+
 SYNTHETIC_LR_SIZE = (32, 24)  # (width, height)
 SYNTHETIC_SCALE = 2
 SYNTHETIC_FRAMES = 8
