@@ -33,7 +33,7 @@ data; every function here takes a profile and branches on its fields only.
 ADD, QUANTIZE and the LOGISTIC/TANH tables have per-profile formulas too (see
 :func:`add`, :func:`quantize`, :func:`lookup_table`).  Every profile here was
 checked bit for bit against its runtime on x86-64 (ai-edge-litert 2.3.0,
-onnxruntime 1.23) by ``tests/quantize/test_profiles.py``.
+onnxruntime 1.31) by ``tests/quantize/test_profiles.py``.
 
 All integer arithmetic is carried out in int64 numpy arrays so intermediate
 products never overflow; results are returned in the dtype the runtime stores.

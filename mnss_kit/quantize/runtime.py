@@ -1,0 +1,130 @@
+"""Run the written NPU stage (LiteRT or ONNX Runtime) and swap it into a float PyTorch model.
+
+Runners take and return NHWC arrays keyed by graph tensor name, so results
+from both runtimes compare directly; :class:`QuantizedStage` wraps one as an
+``nn.Module`` with the float NCHW interface of the module it replaces.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..ops import quant as Q
+from .graph import Graph
+
+RESOLVERS = ("reference", "optimized", "xnnpack")
+# numerics profile that reproduces each runtime bit for bit
+RUNTIME_PROFILES = {"reference": "tflite_reference", "optimized": "tflite_optimized", "xnnpack": "xnnpack", "onnxruntime": "onnxruntime"}
+
+
+def quantize_inputs(graph: Graph, inputs_nchw: list[np.ndarray], profile: str = "tflite_reference") -> list[np.ndarray]:
+    """Float NCHW inputs -> integer NHWC arrays with each graph input's parameters."""
+    out = []
+    for name, x in zip(graph.inputs, inputs_nchw, strict=True):
+        t = graph.tensors[name]
+        nhwc = np.ascontiguousarray(np.transpose(np.asarray(x, np.float32), (0, 2, 3, 1)))
+        out.append(Q.quantize(nhwc, t.scale, t.zero_point, t.dtype, profile))
+    return out
+
+
+def dequantize_tensor(graph: Graph, name: str, q: np.ndarray) -> np.ndarray:
+    t = graph.tensors[name]
+    return Q.dequantize(q, t.scale, t.zero_point)
+
+
+class TfliteRunner:
+    """LiteRT interpreter on ``npu.tflite`` bytes.  ``resolver``: reference, optimized or xnnpack."""
+
+    def __init__(self, model: bytes, resolver: str = "reference", preserve_all: bool = False, num_threads: int = 1):
+        from ai_edge_litert.interpreter import Interpreter, OpResolverType
+
+        kinds = {
+            "reference": OpResolverType.BUILTIN_REF,
+            "optimized": OpResolverType.BUILTIN_WITHOUT_DEFAULT_DELEGATES,
+            "xnnpack": OpResolverType.AUTO,
+        }
+        self.interpreter = Interpreter(
+            model_content=model, experimental_op_resolver_type=kinds[resolver], experimental_preserve_all_tensors=preserve_all, num_threads=num_threads
+        )
+        self.interpreter.allocate_tensors()
+        self.details = {d["name"]: d["index"] for d in self.interpreter.get_tensor_details()}
+        self.inputs = [d["index"] for d in self.interpreter.get_input_details()]
+        self.outputs = [d["name"] for d in self.interpreter.get_output_details()]
+
+    def run(self, inputs_nhwc: list[np.ndarray], names: list[str] | None = None) -> dict[str, np.ndarray]:
+        """Run once; returns the outputs (and ``names``, readable with ``preserve_all``) as NHWC arrays."""
+        for index, x in zip(self.inputs, inputs_nhwc, strict=True):
+            self.interpreter.set_tensor(index, x)
+        self.interpreter.invoke()
+        return {n: self.interpreter.get_tensor(self.details[n]).copy() for n in list(self.outputs) + list(names or [])}
+
+
+class OnnxRunner:
+    """ONNX Runtime (CPU) on an ONNX model written by :mod:`.onnx_writer` (NCHW inside)."""
+
+    def __init__(self, model, num_threads: int = 1, optimize: bool = True):
+        import onnxruntime as ort
+
+        so = ort.SessionOptions()
+        so.intra_op_num_threads = num_threads
+        so.inter_op_num_threads = 1
+        so.log_severity_level = 3
+        if not optimize:
+            so.graph_optimization_level = ort.GraphOptimizationLevel.ORT_DISABLE_ALL
+        data = model if isinstance(model, bytes) else model.SerializeToString()
+        self.session = ort.InferenceSession(data, so, providers=["CPUExecutionProvider"])
+        self.input_names = [i.name for i in self.session.get_inputs()]
+        self.output_names = [o.name for o in self.session.get_outputs()]
+
+    def run(self, inputs_nhwc: list[np.ndarray]) -> dict[str, np.ndarray]:
+        """Returns every output as NHWC, keyed by graph name (``.out`` suffixes removed)."""
+        feed = {n: np.ascontiguousarray(np.transpose(x, (0, 3, 1, 2))) for n, x in zip(self.input_names, inputs_nhwc, strict=True)}
+        results = self.session.run(None, feed)
+        return {_graph_name(n): np.transpose(r, (0, 2, 3, 1)) for n, r in zip(self.output_names, results)}
+
+
+def _graph_name(onnx_name: str) -> str:
+    return onnx_name[: -len(".out")] if onnx_name.endswith(".out") else onnx_name
+
+
+class QuantizedStage:
+    """Factory for an ``nn.Module`` that runs the quantized graph in place of a float module.
+
+    ``backend``: ``tflite`` (with ``resolver``) or ``onnx``.  Inputs are
+    quantized with the numerics profile of the chosen runtime, outputs
+    dequantized; the module is float NCHW in and out, like the original.
+    """
+
+    @staticmethod
+    def build(graph: Graph, model, backend: str = "tflite", resolver: str = "reference"):
+        import torch
+
+        if backend == "tflite":
+            runner, profile = TfliteRunner(model, resolver), RUNTIME_PROFILES[resolver]
+        elif backend == "onnx":
+            runner, profile = OnnxRunner(model), RUNTIME_PROFILES["onnxruntime"]
+        else:
+            raise ValueError(f"unknown backend {backend!r}")
+
+        class _Stage(torch.nn.Module):
+            placement = "npu"
+
+            def forward(self, *inputs):
+                # the graph has batch 1: run the samples one by one
+                per_sample = [self.run_one([t[i : i + 1] for t in inputs]) for i in range(inputs[0].shape[0])]
+                results = [torch.cat(parts, dim=0).to(inputs[0].device) for parts in zip(*per_sample)]
+                return results[0] if len(results) == 1 else tuple(results)
+
+            def run_one(self, inputs):
+                arrays = [t.detach().cpu().float().numpy() for t in inputs]
+                out = runner.run(quantize_inputs(graph, arrays, profile))
+                return [torch.from_numpy(np.ascontiguousarray(np.transpose(dequantize_tensor(graph, n, out[n]), (0, 3, 1, 2)))) for n in graph.outputs]
+
+        return _Stage()
+
+
+def swap_stage(model, attribute: str, replacement):
+    """Replace ``model.<attribute>`` (e.g. ``recon``) with ``replacement``; returns the original module."""
+    original = getattr(model, attribute)
+    setattr(model, attribute, replacement)
+    return original

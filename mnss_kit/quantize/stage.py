@@ -1,0 +1,198 @@
+"""Quantize one float NPU module: trace, calibrate, quantize, (A16, QAT), write and measure.
+
+``quantize_module`` is the stage's entry function; ``mnss-kit quantize`` wraps
+it with checkpoint loading and calibration data.  Written into ``out_dir``:
+
+    npu.tflite      int8 (NHWC, integer I/O), LiteRT flatbuffer
+    npu_qdq.onnx    the same graph as QDQ ONNX (NCHW, integer I/O), same scales and zero points
+    encodings.json  every tensor's encoding (see :mod:`.artifacts`)
+    report.json     measurements; report.md renders it
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import torch
+
+from ..metrics.image import psnr
+from . import artifacts
+from .calibrate import calibrate
+from .graph import Graph, op_graph
+from .onnx_writer import to_onnx
+from .params import quantize_graph
+from .runtime import RESOLVERS, RUNTIME_PROFILES, OnnxRunner, TfliteRunner, dequantize_tensor, quantize_inputs
+from .sensitivity import choose_int16, only_layer_psnr, sqnr_db, tensor_sqnr
+from .tflite_writer import to_tflite
+from .trace import trace
+
+log = logging.getLogger(__name__)
+MAX_EVAL_SAMPLES = 8  # sensitivity and agreement are measured on at most this many samples
+
+
+@dataclasses.dataclass
+class QuantizeOptions:
+    method: str = "minmax"
+    int16: int = 0  # number of most sensitive tensors given 16-bit activations
+    qat_steps: int = 0
+    qat_lr: float = 1e-4
+
+
+@dataclasses.dataclass
+class QuantizedArtifacts:
+    graph: Graph
+    tflite: bytes
+    onnx: bytes
+    report: dict
+
+
+def quantize_module(module: torch.nn.Module, samples: Sequence[Sequence[np.ndarray]], options: QuantizeOptions, name: str = "model") -> QuantizedArtifacts:
+    """Quantize ``module`` (float, NCHW) calibrated on ``samples`` (lists of NCHW float32 inputs, batch 1)."""
+    module = module.eval()
+    example = [torch.from_numpy(np.asarray(x, np.float32)) for x in samples[0]]
+    float_graph = trace(module, example)
+    log.info("traced %d ops; calibrating (%s) on %d samples", len(float_graph.ops), options.method, len(samples))
+    ranges = calibrate(float_graph, samples, options.method)
+    graph = quantize_graph(float_graph, ranges)
+    evals = list(samples[:MAX_EVAL_SAMPLES])
+    _, float_outputs = tensor_sqnr(float_graph, graph, to_tflite(graph), evals)
+    only_psnr = only_layer_psnr(graph, evals, float_outputs)
+    chosen, skipped = [], {}
+    if options.int16:
+        chosen, skipped = choose_int16(graph, only_psnr, options.int16)
+        graph = quantize_graph(float_graph, ranges, int16=set(chosen))
+    qat = None
+    if options.qat_steps:
+        from .fakequant import finetune
+
+        graph, losses = finetune(graph, module, samples, steps=options.qat_steps, lr=options.qat_lr)
+        tenth = max(1, len(losses) // 10)  # single-sample losses are noisy: average the first and last tenth
+        qat = {"steps": options.qat_steps, "lr": options.qat_lr, "loss_first": float(np.mean(losses[:tenth])), "loss_last": float(np.mean(losses[-tenth:]))}
+    tflite = to_tflite(graph)
+    onnx_bytes = to_onnx(graph).SerializeToString()
+    sqnr, _ = tensor_sqnr(float_graph, graph, tflite, evals)
+    report = {
+        "model": name,
+        "method": options.method,
+        "samples": len(samples),
+        "int16": chosen,
+        "int16_skipped": skipped,
+        "qat": qat,
+        "layout": {"npu.tflite": "NHWC", "npu_qdq.onnx": "NCHW"},
+        "inputs": {n: _io(graph, n) for n in graph.inputs},
+        "outputs": {n: _io(graph, n) for n in graph.outputs},
+        "output": output_quality(graph, tflite, onnx_bytes, evals, float_outputs),
+        "agreement": runtime_agreement(graph, tflite, evals),
+        "tensors": _tensor_rows(graph, sqnr, only_psnr),
+    }
+    return QuantizedArtifacts(graph, tflite, onnx_bytes, report)
+
+
+def write_artifacts(art: QuantizedArtifacts, out_dir: str | Path) -> dict[str, int]:
+    """Write the four files into ``out_dir`` (a staging directory); returns their sizes in bytes."""
+    out = Path(out_dir)
+    (out / "npu.tflite").write_bytes(art.tflite)
+    (out / "npu_qdq.onnx").write_bytes(art.onnx)
+    (out / "encodings.json").write_text(json.dumps(artifacts.encodings(art.graph), indent=2) + "\n")
+    files = {n: (out / n).stat().st_size for n in ("npu.tflite", "npu_qdq.onnx", "encodings.json")}
+    art.report["files"] = files
+    (out / "report.json").write_text(json.dumps(_plain(art.report), indent=2) + "\n")
+    (out / "report.md").write_text(artifacts.report_markdown(art.report))
+    return files
+
+
+def output_quality(graph: Graph, tflite: bytes, onnx_bytes: bytes, samples, float_outputs) -> dict[str, dict]:
+    """Output PSNR (peak 1) and SQNR of each runtime's dequantized output against the float graph."""
+    out = graph.outputs[0]
+    ref = np.concatenate([f[out] for f in float_outputs])
+    result = {}
+    runners = {f"litert_{r}": (TfliteRunner(tflite, r), RUNTIME_PROFILES[r]) for r in RESOLVERS}
+    runners["onnxruntime"] = (OnnxRunner(onnx_bytes), RUNTIME_PROFILES["onnxruntime"])
+    for name, (runner, profile) in runners.items():
+        got = np.concatenate([dequantize_tensor(graph, out, runner.run(quantize_inputs(graph, list(s), profile))[out]) for s in samples])
+        result[name] = {"psnr_db": psnr(got, ref), "sqnr_db": sqnr_db(ref, got)}
+    return result
+
+
+def runtime_agreement(graph: Graph, tflite: bytes, samples) -> dict:
+    """How far LiteRT reference and ONNX Runtime QDQ results are apart, in LSB of each tensor's own type.
+
+    ``per_op_max_lsb``: each op run alone on the same integer inputs (the
+    writers' consistency; pooling and resizing round ties differently, so 1
+    is expected).  ``end_to_end_max_lsb``: whole-graph runs, where a 1-LSB
+    difference can grow downstream; reported for int8 and int16 tensors apart.
+    """
+    names = graph.activations()
+    lite = TfliteRunner(tflite, "reference", preserve_all=True)
+    ort_runner = OnnxRunner(to_onnx(graph, expose=names))
+    worst = {"int8": 0, "int16": 0}
+    differing = total = 0
+    per_op = {}
+    for i, s in enumerate(samples):
+        q = quantize_inputs(graph, list(s))
+        a, b = lite.run(q, names), ort_runner.run(q)
+        for n in names:
+            d = np.abs(a[n].astype(np.int64) - b[n].astype(np.int64))
+            worst[graph.tensors[n].dtype] = max(worst[graph.tensors[n].dtype], int(d.max()))
+            differing += int(np.count_nonzero(d))
+            total += d.size
+        if i == 0:
+            for op in graph.ops:
+                sub = op_graph(graph, op)
+                inputs = [a[n] for n in sub.inputs]
+                x = TfliteRunner(to_tflite(sub), "reference").run(inputs)[op.outputs[0]]
+                y = OnnxRunner(to_onnx(sub)).run(inputs)[op.outputs[0]]
+                per_op[op.outputs[0]] = int(np.abs(x.astype(np.int64) - y.astype(np.int64)).max())
+    return {
+        "per_op_max_lsb": max(per_op.values()),
+        "per_op": per_op,
+        "end_to_end_max_lsb": worst["int8"],
+        "end_to_end_max_lsb_int16": worst["int16"],
+        "end_to_end_fraction_differing": differing / max(total, 1),
+    }
+
+
+def _io(graph: Graph, name: str) -> dict:
+    t = graph.tensors[name]
+    n, h, w, c = t.shape
+    return {"shape_nhwc": [n, h, w, c], "dtype": t.dtype, "scale": float(t.scale), "zero_point": int(t.zero_point)}
+
+
+def _tensor_rows(graph: Graph, sqnr: dict, only_psnr: dict) -> list[dict]:
+    rows = []
+    for name in graph.activations():
+        t = graph.tensors[name]
+        op = graph.producer(name)
+        rows.append(
+            {
+                "name": name,
+                "op": op.kind if op else "INPUT",
+                "dtype": t.dtype,
+                "scale": float(t.scale),
+                "zero_point": int(t.zero_point),
+                "calibrated_min": t.rmin,
+                "calibrated_max": t.rmax,
+                "sqnr_db": sqnr.get(name),
+                "only_psnr_db": only_psnr.get(name),
+            }
+        )
+    return rows
+
+
+def _plain(value):
+    """JSON-safe copy: numpy scalars to Python, infinities to strings."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        v = float(value)
+        return v if np.isfinite(v) else ("inf" if v > 0 else "-inf" if v < 0 else "nan")
+    if isinstance(value, np.integer):
+        return int(value)
+    return value

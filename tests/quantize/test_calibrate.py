@@ -1,0 +1,99 @@
+"""Calibration: range methods, the recording hook, and input checks."""
+
+import numpy as np
+import pytest
+import torch
+
+from mnss_kit.errors import UserError
+from mnss_kit.ops import quant as Q
+from mnss_kit.quantize.calibrate import InputRecorder, calibrate, mse_range, record_stage_inputs
+
+
+@pytest.mark.parametrize("method", ["minmax", "percentile", "entropy", "mse"])
+def test_ranges_cover_zero_and_stay_inside_observed(recon, method):
+    ranges = calibrate(recon.float_graph, recon.samples, method)
+    assert set(ranges) == set(recon.float_graph.activations())
+    for name, (lo, hi) in ranges.items():
+        olo, ohi = recon.ranges[name]  # minmax
+        assert olo - 1e-6 <= lo <= hi <= ohi + 1e-6, name
+
+
+def test_narrower_methods_clip_outliers():
+    """A heavy-tailed tensor: percentile and MSE ranges are narrower than min/max."""
+    from mnss_kit.quantize.trace import trace
+
+    class Scale(torch.nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.conv = torch.nn.Conv2d(1, 1, 1)
+
+        def forward(self, x):
+            return self.conv(x)
+
+    m = Scale()
+    with torch.no_grad():
+        m.conv.weight.fill_(1.0)
+        m.conv.bias.zero_()
+    rng = np.random.default_rng(0)
+    samples = []
+    for _ in range(4):
+        samples.append([rng.laplace(size=(1, 1, 128, 128)).astype(np.float32)])  # heavy tails
+    g = trace(m, [torch.from_numpy(samples[0][0])])
+    minmax = calibrate(g, samples, "minmax")["conv"]
+    for method in ("percentile", "mse"):
+        lo, hi = calibrate(g, samples, method)["conv"]
+        assert hi < 0.9 * minmax[1] and lo > 0.9 * minmax[0], method
+
+
+def test_mse_range_beats_minmax_on_its_own_objective():
+    rng = np.random.default_rng(1)
+    x = rng.laplace(size=100000).astype(np.float32)
+    counts, edges = np.histogram(x, bins=2048, range=(x.min(), x.max()))
+    lo, hi = mse_range((counts.astype(float), edges), (float(x.min()), float(x.max())))
+
+    def mse(r):
+        s, z = Q.choose_qparams(*r)
+        return float(np.mean((Q.dequantize(Q.quantize(x, s, z), s, z) - x) ** 2))
+
+    assert mse((lo, hi)) < mse((float(x.min()), float(x.max())))
+
+
+def test_recorder_keeps_stage_inputs_of_recurrent_runs():
+    class Model(torch.nn.Module):
+        """Toy recurrent model: the NPU stage sees the previous output, as MNSS's recon does."""
+
+        def __init__(self):
+            super().__init__()
+            self.recon = torch.nn.Conv2d(3, 3, 1)
+
+        def initial_state(self, frame):
+            return {"history": torch.zeros_like(frame["color"])}
+
+        def forward(self, frame, state):
+            out = self.recon(frame["color"] + state["history"])
+            return out, {}, {"history": out}
+
+    model = Model()
+    frames = [{"color": torch.rand(2, 3, 4, 4)} for _ in range(3)]
+    samples = record_stage_inputs(model, frames, "recon", limit=5)
+    assert len(samples) == 5 and all(s[0].shape == (1, 3, 4, 4) for s in samples)
+    # the third frame's inputs include the history of the second
+    with torch.no_grad():
+        out0 = model.recon(frames[0]["color"])
+    np.testing.assert_allclose(samples[2][0][0], (frames[1]["color"] + out0)[0].numpy(), atol=1e-6)
+    assert not model.recon._forward_hooks  # the hook is removed afterwards
+    with InputRecorder(model.recon) as rec:
+        model.recon(torch.rand(1, 3, 4, 4))
+    assert len(rec.samples) == 1
+
+
+def test_bad_samples_are_user_errors(recon):
+    good = recon.samples[0]
+    bad_shape = [good[0][:, :, :8], good[1]]
+    nan = [good[0].copy(), good[1]]
+    nan[0][0, 0, 0, 0] = np.nan
+    for samples, words in (([bad_shape], "shape"), ([nan], "NaN"), ([good[:1]], "inputs"), ([], "no calibration")):
+        with pytest.raises(UserError, match=words):
+            calibrate(recon.float_graph, samples, "minmax")
+    with pytest.raises(UserError, match="unknown calibration method"):
+        calibrate(recon.float_graph, recon.samples, "kl")
