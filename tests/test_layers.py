@@ -10,7 +10,7 @@ import pytest
 PKG = Path(__file__).resolve().parent.parent / "mnss_kit"
 STAGES = ["render", "dataset", "model", "train", "eval", "quantize", "split", "export", "emulate"]
 # Stages that may be imported from anywhere: shared foundations, not pipeline steps.
-SHARED = {"ops", "metrics", "config", "errors", "fileio", "shaders"}
+SHARED = {"ops", "metrics", "config", "errors", "fileio", "shaders", "gpu"}
 # The on-disk dataset format is a contract: the renderer writes it, every later stage reads it.
 CONTRACT_MODULES = {"mnss_kit.dataset.format", "mnss_kit.dataset.exr"}
 
@@ -60,8 +60,8 @@ def test_ops_import_only_numpy(path):
             )
 
 
-@pytest.mark.parametrize("path", python_files("emulate"), ids=lambda p: p.name)
-def test_emulate_does_not_import_torch(path):
+@pytest.mark.parametrize("path", python_files("emulate") + python_files("gpu"), ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_emulate_and_gpu_reference_do_not_import_torch(path):
     for mod in imported_modules(path):
         assert mod.split(".")[0] != "torch", f"{path.name} imports {mod}"
 

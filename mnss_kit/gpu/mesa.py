@@ -1,0 +1,245 @@
+"""Desktop harness: the runtime shader files, flattened, run through EGL (Mesa llvmpipe on a CPU).
+
+Desktop OpenGL 4.3+ accepts ``#version 310 es`` compute shaders (GL_ARB_ES3_1_compatibility),
+so the files that ship to the phone run unchanged.  :class:`MesaPasses` has one method per pass,
+with the arguments and results of :class:`mnss_kit.gpu.reference.ReferencePasses`: numpy in,
+numpy out.  Bindings come from ``passes.PASSES``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import UserError
+from ..ops.jitter import subpixel_index
+from . import passes as P
+from .glsl import flatten
+from .reference import as_jitter
+from .weights import Conv3x3, layers_of
+
+# sized format -> (components, moderngl dtype, GL enum for image bindings); moderngl's "f1" is UNORM
+TEXTURE_FORMATS = {
+    "rgba16f": (4, "f2", 0x881A),
+    "rgba32f": (4, "f4", 0x8814),
+    "r32f": (1, "f4", 0x822E),
+    "rg32f": (2, "f4", 0x8230),
+    "rgba8": (4, "f1", 0x8058),
+}
+NUMPY_DTYPES = {"f2": np.float16, "f4": np.float32, "f1": np.uint8}
+MAX_GROUPS_X = 4096  # workgroups along x for the 1D word grid; the rest go along y
+
+
+def create_context():
+    """A headless OpenGL 4.3+ context through EGL; ``UserError`` if the system cannot provide one."""
+    import moderngl
+
+    try:
+        return moderngl.create_context(standalone=True, backend="egl", require=430)
+    except Exception as e:  # moderngl raises plain Exceptions for missing EGL or drivers
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise UserError(
+            f"cannot create an OpenGL 4.3 context through EGL ({first}); install Mesa EGL (libegl1, libgl1-mesa-dri)"
+        ) from None
+
+
+def _subpixel(jitter, scale: int) -> tuple[int, int]:
+    """The ``ivec2`` uniform of the sampled sub-pixel, from ``ops.jitter.subpixel_index``."""
+    dx, dy = subpixel_index(as_jitter(jitter), scale)
+    return int(dx), int(dy)
+
+
+def _vec2(jitter) -> tuple[float, float]:
+    jx, jy = as_jitter(jitter)
+    return float(jx), float(jy)
+
+
+class MesaPasses:
+    """The runtime passes on the GPU of an OpenGL context (one per instance; reuse it)."""
+
+    def __init__(self, ctx=None):
+        self.ctx = ctx if ctx is not None else create_context()
+        self.ctx.gc_mode = "auto"  # release per-call textures and buffers when they are dropped
+        self._programs: dict[str, object] = {}
+
+    # -- plumbing ------------------------------------------------------------------------------
+    def program(self, name: str):
+        """The compiled compute shader of pass ``name``."""
+        if name not in self._programs:
+            self._programs[name] = self.compile(flatten(P.PASSES[name].entry))
+        return self._programs[name]
+
+    def compile(self, source: str):
+        """A compute shader from GLSL source (tests use it for helper functions)."""
+        return self.ctx.compute_shader(source)
+
+    def texture(self, data: np.ndarray, fmt: str):
+        """A 2D texture of sized format ``fmt`` from ``(H, W, C)`` data, C <= the format's channels.
+
+        Missing channels are filled with 0 (alpha with 1); values are converted on the host
+        (numpy: float16 rounds to nearest-even).
+        """
+        components, dtype, _ = TEXTURE_FORMATS[fmt]
+        data = np.asarray(data)
+        h, w, c = data.shape
+        full = np.zeros((h, w, components), dtype=np.float32)
+        if components == 4:
+            full[..., 3] = 1.0
+        full[..., :c] = data
+        raw = np.ascontiguousarray(full.astype(NUMPY_DTYPES[dtype])).tobytes()
+        return self.ctx.texture((w, h), components, raw, dtype=dtype)
+
+    def texture_array(self, data: np.ndarray):
+        """An rgba16f 2D array texture from ``(h, w, C)``: channels ``4l .. 4l+3`` in layer ``l``, zero padded."""
+        h, w, c = data.shape
+        layers = layers_of(c)
+        full = np.zeros((layers * 4, h, w), dtype=np.float16)
+        full[:c] = np.moveaxis(np.asarray(data, np.float32), -1, 0)
+        stacked = full.reshape(layers, 4, h, w).transpose(0, 2, 3, 1)
+        return self.ctx.texture_array((w, h, layers), 4, np.ascontiguousarray(stacked).tobytes(), dtype="f2")
+
+    def empty(self, size: tuple[int, int], fmt: str, layers: int = 0):
+        """An output texture (``size`` = (width, height)); a 2D array of ``layers`` if > 0."""
+        components, dtype, _ = TEXTURE_FORMATS[fmt]
+        if layers:
+            return self.ctx.texture_array((*size, layers), components, dtype=dtype)
+        return self.ctx.texture(size, components, dtype=dtype)
+
+    @staticmethod
+    def read(texture, fmt: str, channels: int) -> np.ndarray:
+        """The first ``channels`` channels of a 2D texture or array texture (layers of four channels
+        side by side): ``(H, W, channels)`` float32, uint8 for rgba8."""
+        components, dtype, _ = TEXTURE_FORMATS[fmt]
+        data = np.frombuffer(texture.read(), dtype=NUMPY_DTYPES[dtype])
+        if hasattr(texture, "layers"):
+            w, h, layers = texture.size
+            data = data.reshape(layers, h, w, components).transpose(1, 2, 0, 3).reshape(h, w, layers * components)
+        else:
+            w, h = texture.size
+            data = data.reshape(h, w, components)
+        data = data[..., :channels]
+        return data.copy() if dtype == "f1" else data.astype(np.float32)
+
+    def run(self, name: str, extent: tuple[int, ...], resources: dict, uniforms: dict) -> None:
+        """Bind ``resources`` (binding name -> texture or buffer) as ``passes.PASSES[name]`` says,
+        set ``uniforms``, dispatch enough workgroups to cover ``extent`` invocations (x, y, z) and
+        wait for the writes."""
+        spec = P.PASSES[name]
+        prog = self.program(name)
+        for binding in spec.bindings:
+            obj = resources[binding.name]
+            if binding.kind == "sampler":
+                obj.use(location=binding.unit)
+            elif binding.kind == "image":
+                obj.bind_to_image(binding.unit, read=False, write=True, format=TEXTURE_FORMATS[binding.format][2])
+            else:
+                obj.bind_to_storage_buffer(binding.unit)
+        for key, value in uniforms.items():
+            if key in prog:  # the linker drops uniforms a pass does not read
+                prog[key].value = value
+        extent = (*extent, 1, 1)[:3]
+        groups = [-(-n // size) for n, size in zip(extent, spec.local_size)]
+        if spec.grid == "words":  # a 1D grid folded into 2D: the x count of a dispatch is limited
+            groups = [min(groups[0], MAX_GROUPS_X), -(-groups[0] // MAX_GROUPS_X), 1]
+        prog.run(*groups)
+        self.ctx.memory_barrier()
+        self.ctx.finish()
+
+    def _placeholder(self):
+        return self.texture(np.zeros((1, 1, 1), np.float32), "r32f")
+
+    # -- passes (signatures of reference.ReferencePasses) ---------------------------------------
+    def warp(self, history, prev_depth, motion, prev_jitter, jitter, scale: int):
+        hh, hw = history.shape[:2]
+        h, w = motion.shape[:2]
+        warped, warped_depth = self.empty((hw, hh), "rgba16f"), self.empty((w, h), "r32f")
+        res = {
+            "history": self.texture(history, "rgba16f"),
+            "prev_depth": self.texture(prev_depth, "r32f"),
+            "motion": self.texture(motion, "rg32f"),
+            "warped": warped,
+            "warped_depth": warped_depth,
+        }
+        uni = {"u_scale": scale, "u_subpixel": _subpixel(jitter, scale), "u_prev_jitter": _vec2(prev_jitter),
+               "u_prev_subpixel": _subpixel(prev_jitter, scale)}
+        self.run("warp_pass", (hw, hh), res, uni)
+        return self.read(warped, "rgba16f", 3), self.read(warped_depth, "r32f", 1)
+
+    def inpaint_weights(self, color, depth, warped, warped_depth, jitter, scale: int, conv: Conv3x3, activation: str):
+        h, w = color.shape[:2]
+        out = self.empty((w, h), "r32f")
+        res = {
+            "color": self.texture(color, "rgba16f"),
+            "depth": self.texture(depth, "r32f"),
+            "warped": self.texture(warped, "rgba16f"),
+            "warped_depth": self.texture(warped_depth, "r32f"),
+            "weights": self.ctx.buffer(conv.packed().tobytes()),
+            "lr_weight": out,
+        }
+        uni = {"u_scale": scale, "u_subpixel": _subpixel(jitter, scale), "u_activation": P.ACTIVATION_CODES[activation]}
+        self.run("inpaint_weights_pass", (w, h), res, uni)
+        return self.read(out, "r32f", 1)
+
+    def inpaint_blend(self, color, warped, lr_weight, jitter, scale: int, weight_upsample: str, reset: bool):
+        h, w = color.shape[:2]
+        out = self.empty((w * scale, h * scale), "rgba16f")
+        res = {
+            "color": self.texture(color, "rgba16f"),
+            "warped": self._placeholder() if reset else self.texture(warped, "rgba16f"),
+            "lr_weight": self._placeholder() if reset else self.texture(lr_weight, "r32f"),
+            "rectified": out,
+        }
+        uni = {"u_scale": scale, "u_jitter": _vec2(jitter), "u_subpixel": _subpixel(jitter, scale),
+               "u_weight_upsample": P.WEIGHT_UPSAMPLE_CODES[weight_upsample], "u_reset": int(bool(reset))}
+        self.run("inpaint_blend_pass", (w * scale, h * scale), res, uni)
+        return self.read(out, "rgba16f", 3)
+
+    def avgpool(self, rectified, color, scale: int):
+        h, w = color.shape[:2]
+        out = self.empty((w, h), "rgba16f", layers=2)
+        res = {"rectified": self.texture(rectified, "rgba16f"), "color": self.texture(color, "rgba16f"), "aa_input": out}
+        self.run("avgpool_pass", (w, h), res, {"u_scale": scale})
+        return self.read(out, "rgba16f", 6)
+
+    def conv3x3(self, x, conv: Conv3x3, epilogue: str, residual=None):
+        h, w, cin = x.shape
+        if cin != conv.in_channels:
+            raise ValueError(f"input has {cin} channels, the conv expects {conv.in_channels}")
+        out_layers = layers_of(conv.out_channels)
+        out = self.empty((w, h), "rgba16f", layers=out_layers)
+        res = {
+            "x": self.texture_array(x),
+            "residual": self._placeholder() if residual is None else self.texture(residual, "rgba16f"),
+            "weights": self.ctx.buffer(conv.packed().tobytes()),
+            "y": out,
+        }
+        uni = {"u_in_layers": layers_of(cin), "u_out_layers": out_layers, "u_epilogue": P.EPILOGUE_CODES[epilogue]}
+        self.run("conv3x3_pass", (w, h, out_layers), res, uni)
+        return self.read(out, "rgba16f", conv.out_channels)
+
+    def insert_pack(self, rectified, aa, jitter, scale: int, q_scale: float, q_zero_point: int, profile: str):
+        hh, hw = rectified.shape[:2]
+        nbytes = hh * hw * 3
+        words = -(-nbytes // 4)
+        out = self.ctx.buffer(reserve=words * 4)
+        uni = {"u_scale": scale, "u_subpixel": _subpixel(jitter, scale), "u_word_count": words,
+               **P.quantize_uniforms(q_scale, q_zero_point, profile)}
+        res = {"rectified": self.texture(rectified, "rgba16f"), "aa": self.texture_array(aa), "npu_input": out}
+        self.run("insert_pack_pass", (words,), res, uni)
+        return np.frombuffer(out.read(), dtype=np.int8)[:nbytes].reshape(1, hh, hw, 3).copy()
+
+    def unpack_history(self, npu_output, q_scale: float, q_zero_point: int):
+        _, hh, hw, _ = npu_output.shape
+        raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
+        raw += b"\0" * (-len(raw) % 4)
+        history, display = self.empty((hw, hh), "rgba16f"), self.empty((hw, hh), "rgba8")
+        res = {"npu_output": self.ctx.buffer(raw), "history": history, "display": display}
+        uni = {"u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point)}
+        self.run("unpack_history_pass", (hw, hh), res, uni)
+        return self.read(history, "rgba16f", 3), self.read(display, "rgba8", 3)
+
+    def sharpen(self, image, beta: float):
+        hh, hw = image.shape[:2]
+        display = self.empty((hw, hh), "rgba8")
+        res = {"image": self.texture(image, "rgba16f"), "display": display}
+        self.run("sharpen_pass", (hw, hh), res, {"u_beta": float(np.float32(beta))})
+        return self.read(display, "rgba8", 3)

@@ -1,0 +1,144 @@
+"""The GPU passes of the phone runtime as data: entry file, workgroup size, bindings, formats.
+
+This table is what the bundle manifest lists and what the Mesa harness binds by; a test reads
+the flattened shaders and checks that every declaration agrees with it.  Per frame the passes
+run in the order of :data:`PASS_ORDER` (``schedule.py``); the NPU runs ``model.recon`` between
+``insert_pack_pass`` and ``unpack_history_pass``.
+
+Formats are GL sized internal formats.  Image stores in GLSL ES 3.10 accept only rgba32f,
+rgba16f, r32f, rgba8(_snorm) and the integer ones, so one-channel float intermediates are r32f.
+Inputs the engine renders (colour, depth, motion) are read with ``texelFetch`` and could have
+any float format; the formats below are the ones the harness and the emulator assume.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..ops import quant
+
+# Storage formats of the frame inputs and of the state kept between frames.
+INPUT_FORMATS = {"color": "rgba16f", "depth": "r32f", "motion": "rg32f"}
+HISTORY_FORMAT = "rgba16f"
+DISPLAY_FORMAT = "rgba8"
+NPU_TENSOR = {"layout": "NHWC", "shape": "(1, H, W, 3)", "dtype": "int8", "packing": "4 bytes per uint32, little-endian"}
+
+
+@dataclass(frozen=True)
+class Binding:
+    """One shader resource.  ``kind``: ``sampler`` (texelFetch input), ``image`` (imageStore output)
+    or ``buffer`` (std430 SSBO); ``unit`` is its binding point in that kind's namespace."""
+
+    name: str
+    kind: str
+    unit: int
+    format: str  # sized texture format, or the SSBO element type ("vec4[]", "uint[]")
+    array: bool = False  # a 2D array texture (channels in layers of four)
+
+
+@dataclass(frozen=True)
+class Pass:
+    name: str
+    local_size: tuple[int, int, int]
+    grid: str  # what one invocation covers: "hr" texel, "lr" texel, "lr_layers" (LR texel x
+    #            output layer) or "words" (32-bit word of the NPU tensor)
+    bindings: tuple[Binding, ...]
+    uniforms: tuple[str, ...]
+
+    @property
+    def entry(self) -> str:
+        return f"{self.name}.comp"
+
+    def binding(self, name: str) -> Binding:
+        return next(b for b in self.bindings if b.name == name)
+
+
+def _s(name, unit, fmt, array=False):
+    return Binding(name, "sampler", unit, fmt, array)
+
+
+def _i(name, unit, fmt, array=False):
+    return Binding(name, "image", unit, fmt, array)
+
+
+def _b(name, unit, element):
+    return Binding(name, "buffer", unit, element)
+
+
+PASSES = {
+    p.name: p
+    for p in (
+        Pass(
+            "warp_pass", (8, 8, 1), "hr",
+            (_s("history", 0, HISTORY_FORMAT), _s("prev_depth", 1, "r32f"), _s("motion", 2, "rg32f"),
+             _i("warped", 0, "rgba16f"), _i("warped_depth", 1, "r32f")),
+            ("u_scale", "u_subpixel", "u_prev_jitter", "u_prev_subpixel"),
+        ),
+        Pass(
+            "inpaint_weights_pass", (8, 8, 1), "lr",
+            (_s("color", 0, "rgba16f"), _s("depth", 1, "r32f"), _s("warped", 2, "rgba16f"),
+             _s("warped_depth", 3, "r32f"), _b("weights", 0, "vec4[]"), _i("lr_weight", 0, "r32f")),
+            ("u_scale", "u_subpixel", "u_activation"),
+        ),
+        Pass(
+            "inpaint_blend_pass", (8, 8, 1), "hr",
+            (_s("color", 0, "rgba16f"), _s("warped", 1, "rgba16f"), _s("lr_weight", 2, "r32f"),
+             _i("rectified", 0, "rgba16f")),
+            ("u_scale", "u_jitter", "u_subpixel", "u_weight_upsample", "u_reset"),
+        ),
+        Pass(
+            "avgpool_pass", (8, 8, 1), "lr",
+            (_s("rectified", 0, "rgba16f"), _s("color", 1, "rgba16f"), _i("aa_input", 0, "rgba16f", array=True)),
+            ("u_scale",),
+        ),
+        Pass(
+            "conv3x3_pass", (8, 8, 1), "lr_layers",
+            (_s("x", 0, "rgba16f", array=True), _s("residual", 1, "rgba16f"), _b("weights", 0, "vec4[]"),
+             _i("y", 0, "rgba16f", array=True)),
+            ("u_in_layers", "u_out_layers", "u_epilogue"),
+        ),
+        Pass(
+            "insert_pack_pass", (64, 1, 1), "words",
+            (_s("rectified", 0, "rgba16f"), _s("aa", 1, "rgba16f", array=True), _b("npu_input", 0, "uint[]")),
+            ("u_scale", "u_subpixel", "u_word_count", "u_q_scale", "u_q_reciprocal", "u_q_use_reciprocal",
+             "u_q_rounding", "u_q_zero_point"),
+        ),
+        Pass(
+            "unpack_history_pass", (8, 8, 1), "hr",
+            (_b("npu_output", 0, "uint[]"), _i("history", 0, HISTORY_FORMAT), _i("display", 1, DISPLAY_FORMAT)),
+            ("u_q_scale", "u_q_zero_point"),
+        ),
+        Pass(
+            "sharpen_pass", (8, 8, 1), "hr",
+            (_s("image", 0, HISTORY_FORMAT), _i("display", 0, DISPLAY_FORMAT)),
+            ("u_beta",),
+        ),
+    )
+}
+
+# Execution order within a frame (the AA net runs conv3x3_pass once per layer).
+PASS_ORDER = tuple(PASSES)
+
+# Values of the integer mode uniforms, as the shaders' constants define them.
+ACTIVATION_CODES = {"sigmoid": 0, "tanh": 1}
+WEIGHT_UPSAMPLE_CODES = {"bilinear": 0, "nearest": 1}
+EPILOGUE_CODES = {"none": 0, "relu": 1, "residual_clamp": 2}
+ROUNDING_CODES = {"away_from_zero": 0, "half_even": 1, "half_up": 2}
+
+
+def quantize_uniforms(scale: float, zero_point: int, profile) -> dict:
+    """The ``u_q_*`` uniforms of quant.glsl's int8 quantize for ``ops.quant.quantize`` under
+    ``profile`` (a name or a ``quant.Profile``): the float32 scale, its float32 reciprocal
+    (computed here, as the runtime computes it), which of the two the profile uses, the tie rule
+    and the zero point."""
+    p = quant.get_profile(profile)
+    s = np.float32(scale)
+    return {
+        "u_q_scale": float(s),
+        "u_q_reciprocal": float(np.float32(1.0) / s),
+        "u_q_use_reciprocal": int(p.quantize_reciprocal),
+        "u_q_rounding": ROUNDING_CODES[p.quantize_rounding],
+        "u_q_zero_point": int(zero_point),
+    }

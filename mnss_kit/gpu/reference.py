@@ -1,0 +1,96 @@
+"""numpy reference of every runtime GPU pass: what the shaders compute, and the emulator's GPU stage.
+
+:class:`ReferencePasses` and :class:`mnss_kit.gpu.mesa.MesaPasses` have the same methods with
+the same arguments, so ``schedule.py`` runs a frame through either and the tests compare them
+pass by pass.  The math is ``mnss_kit.ops`` (bilinear warp, sub-pixel insertion, inpainting,
+conv, unsharp, quantize); this module adds only what the GPU's storage does to it: values
+stored in an fp16 texture are rounded to float16 (nearest-even; the shaders round explicitly
+because image stores may truncate), r32f / rg32f values stay float32, rgba8 display values are
+8-bit codes (:func:`encode_unorm8`).
+
+Arrays are ``(H, W, C)`` (HR) or ``(h, w, C)`` (LR) float32; jitter is ``(2,)`` LR pixels,
+taken as float32 as the shaders' uniforms are.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..ops import inpaint, quant, sharpen, subpixel, warp
+from ..ops.resample import avgpool
+from .weights import Conv3x3
+
+EPILOGUES = ("none", "relu", "residual_clamp")
+
+
+def to_half(x: np.ndarray) -> np.ndarray:
+    """float32 array of the float16 values nearest to ``x`` (ties to even): an fp16 texture's contents."""
+    return np.asarray(x, dtype=np.float32).astype(np.float16).astype(np.float32)
+
+
+def encode_unorm8(v: np.ndarray) -> np.ndarray:
+    """Display values -> 8-bit codes ``rint(clamp(v, 0, 1) * 255)`` (float32 product, ties to even); uint8."""
+    clamped = np.clip(np.asarray(v, dtype=np.float32), np.float32(0), np.float32(1))
+    return np.rint(clamped * np.float32(255)).astype(np.uint8)
+
+
+def as_jitter(jitter) -> np.ndarray:
+    """``(2,)`` float32 jitter, as a ``vec2`` uniform holds it."""
+    return np.asarray(jitter, dtype=np.float32).reshape(2)
+
+
+class ReferencePasses:
+    """The runtime passes in numpy.  Inputs are rounded to their storage format on entry, as an
+    upload to that texture format would round them."""
+
+    def warp(self, history, prev_depth, motion, prev_jitter, jitter, scale: int):
+        """warp_pass.  history (H,W,3), prev_depth (h,w,1), motion (h,w,2) LR pixels ->
+        (I_W (H,W,3) fp16 values, D_W at this frame's sampled sub-pixels (h,w,1) float32)."""
+        hr_motion = warp.upsample_motion(np.asarray(motion, np.float32), scale)
+        hr_depth = subpixel.jittered_upsample(np.asarray(prev_depth, np.float32), as_jitter(prev_jitter), scale)
+        both = warp.warp_bilinear(np.concatenate([to_half(history), hr_depth], axis=-1), hr_motion)
+        return to_half(both[..., :3]), subpixel.extract_samples(both[..., 3:], as_jitter(jitter), scale)
+
+    def inpaint_weights(self, color, depth, warped, warped_depth, jitter, scale: int, conv: Conv3x3, activation: str):
+        """inpaint_weights_pass -> LR weights (h,w,1) float32 in [0, 1]."""
+        past = subpixel.extract_samples(to_half(warped), as_jitter(jitter), scale)
+        return inpaint.lr_weights(to_half(color), depth, past, warped_depth, conv.weight, conv.bias, activation)
+
+    def inpaint_blend(self, color, warped, lr_weight, jitter, scale: int, weight_upsample: str, reset: bool):
+        """inpaint_blend_pass -> I_R (H,W,3) fp16 values; I_U on a reset (``warped``, ``lr_weight`` unused)."""
+        upsampled = subpixel.jittered_upsample(to_half(color), as_jitter(jitter), scale)
+        if reset:
+            return to_half(upsampled)
+        weight = inpaint.weight_map(np.asarray(lr_weight, np.float32), as_jitter(jitter), scale, weight_upsample)
+        return to_half(inpaint.rectify(upsampled, to_half(warped), weight))
+
+    def avgpool(self, rectified, color, scale: int):
+        """avgpool_pass -> AA net input (h,w,6) fp16 values: pooled I_R, then the colour."""
+        return to_half(np.concatenate([avgpool(to_half(rectified), scale), to_half(color)], axis=-1))
+
+    def conv3x3(self, x, conv: Conv3x3, epilogue: str, residual=None):
+        """conv3x3_pass: (h,w,Cin) -> (h,w,Cout) fp16 values.  ``epilogue``: none, relu, or
+        residual_clamp (``clamp(residual + conv, 0, 1)`` with ``residual`` (h,w,Cout))."""
+        acc = inpaint.conv3x3(to_half(x), conv.weight, conv.bias)
+        if epilogue == "relu":
+            acc = np.maximum(acc, np.float32(0))
+        elif epilogue == "residual_clamp":
+            acc = np.clip(to_half(residual) + acc, np.float32(0), np.float32(1))
+        elif epilogue != "none":
+            raise ValueError(f"unknown epilogue {epilogue!r} (one of {', '.join(EPILOGUES)})")
+        return to_half(acc)
+
+    def insert_pack(self, rectified, aa, jitter, scale: int, q_scale: float, q_zero_point: int, profile: str):
+        """insert_pack_pass -> the int8 NPU input (1,H,W,3): I_AA inserted into I_R, quantized
+        as ``ops.quant.quantize`` under ``profile``."""
+        image = subpixel.insert_samples(to_half(rectified), to_half(aa), as_jitter(jitter), scale)
+        return quant.quantize(image, q_scale, q_zero_point, "int8", profile)[None]
+
+    def unpack_history(self, npu_output, q_scale: float, q_zero_point: int):
+        """unpack_history_pass: int8 (1,H,W,3) -> (history (H,W,3) fp16 values, display (H,W,3) uint8)."""
+        v = quant.dequantize(np.asarray(npu_output)[0], q_scale, q_zero_point)
+        return to_half(v), encode_unorm8(v)
+
+    def sharpen(self, image, beta: float):
+        """sharpen_pass: (H,W,3) -> display (H,W,3) uint8 of ``ops.sharpen.unsharp``."""
+        return encode_unorm8(sharpen.unsharp(to_half(image), beta))

@@ -1,0 +1,106 @@
+"""One frame through the GPU passes: the part before the NPU and the part after it.
+
+    before_npu   warp_pass, inpaint_weights_pass (both skipped on a reset), inpaint_blend_pass,
+                 avgpool_pass, conv3x3_pass per AA layer, insert_pack_pass -> int8 NPU input
+    (NPU)        model.recon on (1, H, W, 3) int8 NHWC; its graph does the space-to-depth
+    after_npu    unpack_history_pass, sharpen_pass (with enhancement) -> history, display
+
+``passes`` is a :class:`~.reference.ReferencePasses` (the emulator) or a
+:class:`~.mesa.MesaPasses` (the shader files on Mesa).  Frames and states are numpy:
+
+    frame  color (h,w,3), depth (h,w,1), motion (h,w,2) LR pixels, jitter (2,), reset bool
+    state  history (H,W,3), depth (h,w,1), jitter (2,) of the previous frame; None = reset
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import UserError
+from ..model.config import ModelConfig
+from ..ops import quant
+from .weights import GpuWeights
+
+
+@dataclass(frozen=True)
+class NpuBoundary:
+    """The int8 tensors crossing to and from the NPU: ``real = scale * (q - zero_point)``, and the
+    numerics profile (``ops.quant.PROFILES``) whose QUANTIZE rounding the pack reproduces."""
+
+    input_scale: float
+    input_zero_point: int
+    output_scale: float
+    output_zero_point: int
+    profile: str = "tflite_reference"
+
+    def __post_init__(self):
+        quant.get_profile(self.profile)  # ValueError on an unknown name
+
+
+@dataclass(frozen=True)
+class GpuStage:
+    """What the GPU passes need from a model: its config knobs and its learned GPU weights."""
+
+    scale: int
+    with_history: bool  # warp + inpaint against the previous output; False: I_R = I_U
+    activation: str
+    weight_upsample: str
+    enhance_beta: float | None  # None: no enhancement
+    weights: GpuWeights
+
+    @classmethod
+    def from_model(cls, config: ModelConfig, state_dict: dict[str, np.ndarray]) -> "GpuStage":
+        """From an MNSS config and its state dict (numpy values)."""
+        if config.history == "lr_frame":
+            raise UserError("the phone runtime keeps the model's output as history; history 'lr_frame' is not supported")
+        weights = GpuWeights.from_state_dict(state_dict)
+        with_history = config.history == "output"
+        if with_history and weights.inpaint is None:
+            raise UserError("model weights lack the inpainting conv (inpaint.conv.*)")
+        return cls(
+            scale=config.scale,
+            with_history=with_history,
+            activation=config.inpaint_activation,
+            weight_upsample=config.weight_upsample,
+            enhance_beta=config.enhance_beta if config.enhance else None,
+            weights=weights,
+        )
+
+
+def before_npu(passes, stage: GpuStage, frame: dict, state: dict | None, boundary: NpuBoundary) -> dict:
+    """The passes up to the NPU.  Returns the int8 NPU input ``npu_input`` (1,H,W,3) and the
+    intermediates: ``warped`` (H,W,3) and ``lr_weight`` (h,w,1) (None on a reset),
+    ``rectified`` (H,W,3), ``aa`` (h,w,3)."""
+    s = stage.scale
+    color, jitter = frame["color"], frame["jitter"]
+    reset = state is None or bool(frame.get("reset", False)) or not stage.with_history
+    warped = lr_weight = None
+    if not reset:
+        warped, warped_depth = passes.warp(state["history"], state["depth"], frame["motion"], state["jitter"], jitter, s)
+        conv = stage.weights.inpaint
+        lr_weight = passes.inpaint_weights(color, frame["depth"], warped, warped_depth, jitter, s, conv, stage.activation)
+    rectified = passes.inpaint_blend(color, warped, lr_weight, jitter, s, stage.weight_upsample, reset)
+    x = passes.avgpool(rectified, color, s)
+    layers = stage.weights.aa
+    for i, conv in enumerate(layers):
+        last = i == len(layers) - 1
+        x = passes.conv3x3(x, conv, "residual_clamp" if last else "relu", color if last else None)
+    npu_input = passes.insert_pack(
+        rectified, x, jitter, s, boundary.input_scale, boundary.input_zero_point, boundary.profile
+    )
+    return {"npu_input": npu_input, "warped": warped, "lr_weight": lr_weight, "rectified": rectified, "aa": x}
+
+
+def after_npu(passes, stage: GpuStage, npu_output: np.ndarray, boundary: NpuBoundary) -> tuple[np.ndarray, np.ndarray]:
+    """The passes after the NPU: int8 (1,H,W,3) -> (history (H,W,3) fp16 values, display (H,W,3) uint8)."""
+    history, display = passes.unpack_history(npu_output, boundary.output_scale, boundary.output_zero_point)
+    if stage.enhance_beta is not None:
+        display = passes.sharpen(history, stage.enhance_beta)
+    return history, display
+
+
+def next_state(frame: dict, history: np.ndarray) -> dict:
+    """The state the next frame reads: this frame's output as history, its LR depth and jitter."""
+    return {"history": history, "depth": frame["depth"], "jitter": np.asarray(frame["jitter"], np.float32)}

@@ -1,0 +1,95 @@
+// Helpers shared by the runtime passes (binding-free; included by the algorithm files).
+//
+// Conventions of mnss_kit/ops/conventions.py: pixel centres at +0.5, clamp-to-edge on texel
+// indices, motion in pixels pointing to the previous frame.  Arithmetic is highp float32 in the
+// order of the numpy references (mnss_kit/ops/resample.py); textures are read with texelFetch
+// only, because hardware filtering precision is implementation-defined.
+
+// The four texels and weights of a bilinear sample at pixel coordinate `p` of an image of
+// `size` texels (ops.resample.bilinear_sample).
+struct BilinearTaps {
+    ivec2 lo;    // top-left texel, clamped to the image
+    ivec2 hi;    // bottom-right texel, clamped to the image
+    vec2 frac;   // weight of the right / lower texel, in [0, 1)
+};
+
+BilinearTaps bilinear_taps(vec2 p, ivec2 size) {
+    vec2 f = p - 0.5;
+    vec2 f0 = floor(f);
+    BilinearTaps t;
+    t.frac = f - f0;
+    // Clamping before the int conversion keeps far off-screen samples defined; the texel
+    // indices are the same as clamping after it.
+    ivec2 i0 = ivec2(clamp(f0, vec2(-1.0), vec2(size)));
+    t.lo = clamp(i0, ivec2(0), size - 1);
+    t.hi = clamp(i0 + 1, ivec2(0), size - 1);
+    return t;
+}
+
+// Blend of the texel values at (lo.x, lo.y), (hi.x, lo.y), (lo.x, hi.y), (hi.x, hi.y).
+vec4 bilinear_blend(vec4 a, vec4 b, vec4 c, vec4 d, vec2 frac) {
+    vec4 top = a * (1.0 - frac.x) + b * frac.x;
+    vec4 bottom = c * (1.0 - frac.x) + d * frac.x;
+    return top * (1.0 - frac.y) + bottom * frac.y;
+}
+
+vec4 bilinear_sample(highp sampler2D image, vec2 p) {
+    BilinearTaps t = bilinear_taps(p, textureSize(image, 0));
+    return bilinear_blend(texelFetch(image, t.lo, 0), texelFetch(image, ivec2(t.hi.x, t.lo.y), 0),
+                          texelFetch(image, ivec2(t.lo.x, t.hi.y), 0), texelFetch(image, t.hi, 0), t.frac);
+}
+
+// True at the HR texels this frame sampled: sub-pixel (dx, dy) of every s x s tile
+// (ops.subpixel; the host computes `subpixel` with ops.jitter.subpixel_index).
+bool is_sampled(ivec2 hr, ivec2 subpixel, int scale) {
+    return hr.x % scale == subpixel.x && hr.y % scale == subpixel.y;
+}
+
+// ops.subpixel.jittered_upsample at HR texel `hr`: the LR sample itself where it was taken,
+// elsewhere bilinear at the LR position the HR pixel centre maps to, shifted by the jitter.
+vec4 jittered_upsample_at(highp sampler2D lr, ivec2 hr, vec2 jitter, ivec2 subpixel, int scale) {
+    if (is_sampled(hr, subpixel, scale)) {
+        return texelFetch(lr, hr / scale, 0);
+    }
+    return bilinear_sample(lr, (vec2(hr) + 0.5) / float(scale) - jitter);
+}
+
+// IEEE binary16 bits of `x`, rounded to nearest, ties to even (numpy's float32 -> float16),
+// computed on the integer bits.  GPUs convert on image stores with an implementation-defined
+// rounding (Mesa llvmpipe truncates), so every fp16 store goes through round_to_half.
+uint half_bits(float x) {
+    uint bits = floatBitsToUint(x);
+    uint sign = (bits >> 16) & 0x8000u;
+    int exponent = int((bits >> 23) & 0xFFu) - 112;  // rebias 127 -> 15
+    uint mantissa = bits & 0x7FFFFFu;
+    if (exponent == 143) {  // inf or NaN (biased 255)
+        return sign | 0x7C00u | (mantissa != 0u ? 0x200u : 0u);
+    }
+    if (exponent >= 31) {
+        return sign | 0x7C00u;  // overflow to infinity
+    }
+    uint shift = 13u;
+    uint base = uint(max(exponent, 0)) << 10;
+    if (exponent <= 0) {  // subnormal half (or zero)
+        if (exponent < -10) {
+            return sign;
+        }
+        mantissa |= 0x800000u;
+        shift = uint(14 - exponent);
+    }
+    uint kept = mantissa >> shift;
+    uint rest = mantissa & ((1u << shift) - 1u);
+    uint half_way = 1u << (shift - 1u);
+    if (rest > half_way || (rest == half_way && (kept & 1u) == 1u)) {
+        kept += 1u;  // a carry into the exponent field is the correct next value
+    }
+    return sign | (base + kept);
+}
+
+float round_to_half(float x) {
+    return unpackHalf2x16(half_bits(x)).x;
+}
+
+vec4 round_to_half(vec4 v) {
+    return vec4(round_to_half(v.x), round_to_half(v.y), round_to_half(v.z), round_to_half(v.w));
+}
