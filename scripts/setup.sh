@@ -9,6 +9,7 @@ missing=()
 for p in "${apt_packages[@]}"; do
     dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
 done
+command -v javac >/dev/null 2>&1 || missing+=(openjdk-17-jdk-headless)  # the Android core's unit tests
 if ((${#missing[@]})); then
     if [ "$(id -u)" = 0 ]; then
         echo "setup: installing ${missing[*]}" >&2

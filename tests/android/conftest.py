@@ -1,0 +1,49 @@
+"""Fixtures: the Android app's plain-Java core compiled once per session, and a tiny exported bundle.
+
+Without a JDK (javac 17 or newer) or the JUnit 4 and Hamcrest jars every test here is skipped with
+the reason; CI installs them (scripts/setup.sh).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from java_harness import REPO, JavaCore, compile_core, missing_tools
+
+BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size: its frames become the golden frames
+
+
+@pytest.fixture(scope="session")
+def java_core(tmp_path_factory) -> JavaCore:
+    reason = missing_tools()
+    if reason:
+        pytest.skip(reason)
+    return compile_core(tmp_path_factory.mktemp("android_core_classes"))
+
+
+@pytest.fixture(scope="session")
+def tiny_bundle(tmp_path_factory, synthetic_dataset) -> Path:
+    """A bundle written by ``mnss-kit export`` from an untrained mnss_x2_tiny checkpoint (last convs
+    perturbed so every tensor carries signal) at 64x48, golden frames from the synthetic dataset.
+    Read-only: copy it before changing it."""
+    import torch
+
+    from mnss_kit.cli import main
+    from mnss_kit.model import checkpoint
+    from mnss_kit.model.config import load_model_config
+    from mnss_kit.model.families import build_model
+
+    root = tmp_path_factory.mktemp("android_bundle")
+    torch.manual_seed(0)
+    model = build_model(load_model_config(str(REPO / "configs" / "models" / "mnss_x2_tiny.yaml"))).eval()
+    with torch.no_grad():
+        for name, p in model.named_parameters():
+            if name.startswith(("recon", "aa")):
+                p.add_(torch.randn_like(p) * 0.05)
+    ckpt = checkpoint.save(root / "mnss_x2_tiny.pt", model, {"jitter_pattern": "mnss"})
+    out = root / "bundle"
+    code = main(["export", str(ckpt), "--out", str(out), "--resolution", BUNDLE_SIZE, "--data", str(synthetic_dataset), "--no-progress"])
+    assert code == 0
+    return out

@@ -1,0 +1,85 @@
+"""Compiling and running the Android app's plain-Java core (android/core) from the tests.
+
+The core (android/core/src/main/java) and its JUnit 4 tests (android/core/src/test/java) are
+compiled with javac into a temporary directory; tests run JUnit or the test-only ``ContractTool``
+on it.  The JUnit 4 and Hamcrest jars are looked up at ``MNSS_JUNIT_JAR`` / ``MNSS_HAMCREST_JAR``
+or Debian's paths (``apt-get install -y default-jdk-headless junit4``).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+CORE = REPO / "android" / "core"
+JUNIT_JAR = Path(os.environ.get("MNSS_JUNIT_JAR", "/usr/share/java/junit4.jar"))
+HAMCREST_JAR = Path(os.environ.get("MNSS_HAMCREST_JAR", "/usr/share/java/hamcrest-core.jar"))
+JAVA_RELEASE = 17
+PACKAGE = "io.mnsskit.core"
+
+
+@dataclass
+class JavaCore:
+    """The compiled core plus test classes."""
+
+    classes: Path
+
+    @property
+    def classpath(self) -> str:
+        return os.pathsep.join([str(self.classes), str(JUNIT_JAR), str(HAMCREST_JAR)])
+
+    def java(self, main: str, *args: str, props: dict[str, str] | None = None, timeout: float = 120) -> subprocess.CompletedProcess:
+        flags = [f"-D{k}={v}" for k, v in (props or {}).items()]
+        cmd = ["java", "-Xshare:auto", "-XX:TieredStopAtLevel=1", *flags, "-cp", self.classpath, main, *args]
+        return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+
+    def junit(self, *test_classes: str, props: dict[str, str] | None = None) -> str:
+        """Run JUnit 4 test classes (simple names); fail with JUnit's report unless all pass."""
+        result = self.java("org.junit.runner.JUnitCore", *(f"{PACKAGE}.{c}" for c in test_classes), props=props)
+        if result.returncode != 0:
+            pytest.fail(f"JUnit failed:\n{result.stdout[-6000:]}\n{result.stderr[-2000:]}", pytrace=False)
+        return result.stdout
+
+    def tool(self, *args: str) -> str:
+        """Run the test-only ContractTool; its stdout (fails the test on a non-zero exit)."""
+        result = self.java(f"{PACKAGE}.ContractTool", *args)
+        if result.returncode != 0:
+            pytest.fail(f"ContractTool {' '.join(args)} failed:\n{result.stderr[-4000:]}", pytrace=False)
+        return result.stdout
+
+
+def missing_tools() -> str | None:
+    """Why the Java tests cannot run here, or None."""
+    for tool in ("javac", "java"):
+        if shutil.which(tool) is None:
+            return f"{tool} not found (install a JDK {JAVA_RELEASE}+, e.g. apt-get install -y default-jdk-headless)"
+    for jar in (JUNIT_JAR, HAMCREST_JAR):
+        if not jar.is_file():
+            return f"{jar} not found (apt-get install -y junit4, or set MNSS_JUNIT_JAR / MNSS_HAMCREST_JAR)"
+    version = subprocess.run(["javac", "-version"], capture_output=True, text=True)
+    match = re.search(r"(\d+)", version.stdout + version.stderr)
+    if not match or int(match.group(1)) < JAVA_RELEASE:
+        return f"javac {JAVA_RELEASE}+ needed, found: {(version.stdout + version.stderr).strip()}"
+    return None
+
+
+def java_sources(kind: str) -> list[Path]:
+    return sorted((CORE / "src" / kind / "java").rglob("*.java"))
+
+
+def compile_core(out: Path) -> JavaCore:
+    """javac the core and its tests into ``out``; fails the test with javac's errors."""
+    sources = java_sources("main") + java_sources("test")
+    cmd = ["javac", "--release", str(JAVA_RELEASE), "-Xlint:all", "-Werror", "-encoding", "UTF-8", "-d", str(out),
+           "-cp", os.pathsep.join([str(JUNIT_JAR), str(HAMCREST_JAR)]), *map(str, sources)]
+    result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    if result.returncode != 0:
+        pytest.fail(f"javac failed on android/core:\n{result.stderr[-6000:]}", pytrace=False)
+    return JavaCore(out)
