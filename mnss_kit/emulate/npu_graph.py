@@ -1,0 +1,258 @@
+"""``npu.tflite`` read into plain data the emulator interprets op by op.
+
+The file is parsed with the flatbuffer schema that ships with ai-edge-litert
+(``schema_py_generated``, object API), without an interpreter.  Every problem
+a user can cause (missing, truncated or foreign file, an operator or option
+the emulator does not implement, a tensor without quantization) is a
+``UserError`` naming the file and the operator or tensor.
+
+Layout and quantization are the file's own: activations NHWC with one
+``(scale, zero_point)`` pair, CONV_2D weights OHWI and DEPTHWISE_CONV_2D
+weights 1HWO with one scale per output channel, int32 biases.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError
+
+TFLITE_IDENTIFIER = b"TFL3"
+
+# operator -> number of activation (non-constant) inputs it takes; constants follow them
+SUPPORTED_OPS = {
+    "CONV_2D": 1,
+    "DEPTHWISE_CONV_2D": 1,
+    "ADD": 2,
+    "MUL": 2,
+    "CONCATENATION": None,  # any number
+    "LOGISTIC": 1,
+    "TANH": 1,
+    "AVERAGE_POOL_2D": 1,
+    "RESIZE_BILINEAR": 1,
+    "DEPTH_TO_SPACE": 1,
+    "SPACE_TO_DEPTH": 1,
+    "PAD": 1,
+    "QUANTIZE": 1,
+    "DEQUANTIZE": 1,
+}
+ACTIVATIONS = {0: "none", 1: "relu", 2: "relu_n1_to_1", 3: "relu6"}
+NUMPY_TYPES = {0: np.float32, 2: np.int32, 4: np.int64, 7: np.int16, 9: np.int8}
+
+
+@dataclass
+class NpuTensor:
+    """One tensor of the graph.  ``scale``/``zero_point``: float32 / int64 arrays (one entry per
+    tensor, or one per channel along ``axis``), empty when not quantized; ``data``: the
+    constant's values, None for activations."""
+
+    name: str
+    shape: tuple[int, ...]
+    dtype: str
+    scale: np.ndarray
+    zero_point: np.ndarray
+    axis: int = 0
+    data: np.ndarray | None = None
+
+    @property
+    def quantized(self) -> bool:
+        return self.scale.size > 0
+
+    def qparams(self) -> tuple[float, int]:
+        """``(scale, zero_point)`` of a per-tensor quantized tensor (scale a float32 value)."""
+        return np.float32(self.scale[0]), int(self.zero_point[0])
+
+
+@dataclass
+class NpuOp:
+    """One operator: its kind (``BuiltinOperator`` name), tensor names and normalized options."""
+
+    index: int
+    kind: str
+    inputs: list[str]
+    outputs: list[str]
+    options: dict = field(default_factory=dict)
+
+    def describe(self) -> str:
+        return f"operator {self.index} ({self.kind} -> '{self.outputs[0]}')"
+
+
+@dataclass
+class NpuGraph:
+    """Tensors by name, operators in execution order, graph inputs and outputs."""
+
+    tensors: dict[str, NpuTensor]
+    ops: list[NpuOp]
+    inputs: list[str]
+    outputs: list[str]
+    source: str = "npu.tflite"
+
+    def execution_order(self) -> list[str]:
+        """Activation tensors as they become available: inputs, then each operator's outputs."""
+        names = list(self.inputs)
+        for op in self.ops:
+            names.extend(n for n in op.outputs if n not in names)
+        return names
+
+
+def read_npu_graph(path_or_bytes: str | Path | bytes, source: str | None = None) -> NpuGraph:
+    """Parse a ``.tflite`` file (path or bytes) into an :class:`NpuGraph`; ``UserError`` on any problem."""
+    if isinstance(path_or_bytes, bytes):
+        data, source = path_or_bytes, source or "npu.tflite"
+    else:
+        path = Path(path_or_bytes)
+        source = source or str(path)
+        if not path.is_file():
+            raise UserError(f"{source}: missing")
+        data = path.read_bytes()
+    model = _parse(data, source)
+    return _Reader(model, data, source).graph()
+
+
+def _parse(data: bytes, source: str):
+    from ai_edge_litert import schema_py_generated as schema
+
+    if len(data) < 8 or data[4:8] != TFLITE_IDENTIFIER:
+        raise UserError(f"{source}: not a TFLite flatbuffer (no 'TFL3' identifier)")
+    try:
+        model = schema.ModelT.InitFromPackedBuf(bytearray(data), 0)
+    except Exception as e:  # a truncated flatbuffer raises from deep inside the generated code
+        raise UserError(f"{source}: corrupt ({type(e).__name__} while reading the flatbuffer)") from None
+    if not model.subgraphs:
+        raise UserError(f"{source}: has no subgraph")
+    if len(model.subgraphs) > 1:
+        raise UserError(f"{source}: has {len(model.subgraphs)} subgraphs; the emulator runs single-subgraph models")
+    return model
+
+
+def _text(name) -> str:
+    return name.decode() if isinstance(name, bytes) else str(name)
+
+
+class _Reader:
+    def __init__(self, model, raw: bytes, source: str):
+        from ai_edge_litert import schema_py_generated as schema
+
+        self.schema = schema
+        self.model = model
+        self.raw = raw
+        self.source = source
+        self.sub = model.subgraphs[0]
+        self.op_names = {v: k for k, v in vars(schema.BuiltinOperator).items() if not k.startswith("_")}
+        self.tensors = [self.tensor(i, t) for i, t in enumerate(self.sub.tensors or [])]
+        self.by_name = {t.name: t for t in self.tensors}
+
+    def fail(self, message: str) -> UserError:
+        return UserError(f"{self.source}: {message}")
+
+    def graph(self) -> NpuGraph:
+        names = [t.name for t in self.tensors]
+        if len(set(names)) != len(names):
+            dup = next(n for n in names if names.count(n) > 1)
+            raise self.fail(f"tensor name '{dup}' is used twice; the emulator addresses tensors by name")
+        ops = [self.operator(i, o) for i, o in enumerate(self.sub.operators or [])]
+        inputs = [names[i] for i in self.sub.inputs]
+        outputs = [names[i] for i in self.sub.outputs]
+        return NpuGraph({t.name: t for t in self.tensors}, ops, inputs, outputs, self.source)
+
+    def buffer_bytes(self, index: int) -> bytes | None:
+        buffers = self.model.buffers or []
+        if index >= len(buffers):
+            return None
+        b = buffers[index]
+        if b.data is not None and len(b.data):
+            return np.asarray(b.data, dtype=np.uint8).tobytes()
+        if b.offset and b.offset > 1:  # large models keep buffers after the flatbuffer
+            if b.offset + b.size > len(self.raw):
+                raise self.fail(f"buffer {index} runs past the end of the file (truncated?)")
+            return self.raw[b.offset:b.offset + b.size]
+        return None
+
+    def tensor(self, index: int, t) -> NpuTensor:
+        name = _text(t.name)
+        if t.type not in NUMPY_TYPES:
+            raise self.fail(f"tensor '{name}' has element type {t.type}, which the emulator does not handle")
+        dtype = np.dtype(NUMPY_TYPES[t.type])
+        shape = tuple(int(d) for d in (t.shape if t.shape is not None else []))
+        q = t.quantization
+        scale = np.asarray(q.scale if q is not None and q.scale is not None else [], dtype=np.float32).reshape(-1)
+        zps = np.asarray(q.zeroPoint if q is not None and q.zeroPoint is not None else [], dtype=np.int64).reshape(-1)
+        if scale.size and zps.size not in (1, scale.size):
+            raise self.fail(f"tensor '{name}' has {scale.size} scales but {zps.size} zero points")
+        if scale.size and zps.size == 0:
+            zps = np.zeros(1, np.int64)
+        raw = self.buffer_bytes(t.buffer)
+        data = None
+        if raw is not None:
+            expected = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+            if len(raw) != expected:
+                raise self.fail(f"constant tensor '{name}' holds {len(raw)} bytes, shape {list(shape)} of {dtype.name} needs {expected}")
+            data = np.frombuffer(raw, dtype=dtype.newbyteorder("<")).astype(dtype).reshape(shape)
+        axis = int(q.quantizedDimension) if q is not None else 0
+        return NpuTensor(name, shape, dtype.name, scale, zps, axis, data)
+
+    def operator(self, index: int, o) -> NpuOp:
+        code = self.model.operatorCodes[o.opcodeIndex]
+        builtin = max(int(code.builtinCode), int(code.deprecatedBuiltinCode))
+        kind = self.op_names.get(builtin, f"builtin code {builtin}")
+        if code.customCode:
+            kind = f"custom op '{_text(code.customCode)}'"
+        ins = [self.tensors[i].name if i >= 0 else "" for i in o.inputs]
+        outs = [self.tensors[i].name for i in o.outputs]
+        op = NpuOp(index, kind, ins, outs)
+        if kind not in SUPPORTED_OPS:
+            raise self.fail(f"{op.describe()}: the emulator does not implement {kind} "
+                            f"(supported: {', '.join(SUPPORTED_OPS)})")
+        op.options = self.options(op, o.builtinOptions)
+        return op
+
+    def activation(self, op: NpuOp, code: int) -> str:
+        if code not in ACTIVATIONS:
+            raise self.fail(f"{op.describe()}: fused activation {code} is not implemented by the emulator")
+        return ACTIVATIONS[code]
+
+    def stride(self, op: NpuOp, o) -> int:
+        if o.strideH != o.strideW:
+            raise self.fail(f"{op.describe()}: unequal strides {o.strideH}x{o.strideW} are not implemented by the emulator")
+        return int(o.strideH)
+
+    def padding(self, o) -> str:
+        return "SAME" if o.padding == self.schema.Padding.SAME else "VALID"
+
+    def constant(self, op: NpuOp, position: int, what: str) -> np.ndarray:
+        if position >= len(op.inputs) or not op.inputs[position]:
+            raise self.fail(f"{op.describe()}: missing {what} input")
+        data = self.by_name[op.inputs[position]].data
+        if data is None:
+            raise self.fail(f"{op.describe()}: {what} ('{op.inputs[position]}') must be a constant")
+        return data
+
+    def options(self, op: NpuOp, o) -> dict:
+        k = op.kind
+        if k in ("CONV_2D", "DEPTHWISE_CONV_2D"):
+            if (o.dilationHFactor or 1) != 1 or (o.dilationWFactor or 1) != 1:
+                raise self.fail(f"{op.describe()}: dilated convolutions are not implemented by the emulator")
+            self.constant(op, 1, "weights")
+            return {"stride": self.stride(op, o), "padding": self.padding(o), "activation": self.activation(op, o.fusedActivationFunction)}
+        if k in ("ADD", "MUL"):
+            return {"activation": self.activation(op, o.fusedActivationFunction if o is not None else 0)}
+        if k == "CONCATENATION":
+            return {"axis": int(o.axis), "activation": self.activation(op, o.fusedActivationFunction)}
+        if k == "AVERAGE_POOL_2D":
+            if o.filterHeight != o.filterWidth:
+                raise self.fail(f"{op.describe()}: non-square pooling windows are not implemented by the emulator")
+            return {"size": int(o.filterHeight), "stride": self.stride(op, o), "padding": self.padding(o),
+                    "activation": self.activation(op, o.fusedActivationFunction)}
+        if k == "RESIZE_BILINEAR":
+            if o is not None and o.alignCorners:
+                raise self.fail(f"{op.describe()}: align_corners=True is not implemented by the emulator")
+            size = self.constant(op, 1, "size")
+            return {"size": (int(size[0]), int(size[1])), "half_pixel_centers": bool(o is not None and o.halfPixelCenters)}
+        if k in ("DEPTH_TO_SPACE", "SPACE_TO_DEPTH"):
+            return {"block": int(o.blockSize)}
+        if k == "PAD":
+            return {"paddings": self.constant(op, 1, "paddings").astype(np.int64)}
+        return {}
