@@ -28,9 +28,14 @@ def bilinear_sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarr
     x0i = x0.astype(np.int64)
     y0i = y0.astype(np.int64)
     xa, xb = np.clip(x0i, 0, w - 1), np.clip(x0i + 1, 0, w - 1)
-    ya, yb = np.clip(y0i, 0, h - 1), np.clip(y0i + 1, 0, h - 1)
-    top = img[ya, xa] * (1 - ax) + img[ya, xb] * ax
-    bottom = img[yb, xa] * (1 - ax) + img[yb, xb] * ax
+    ya, yb = np.clip(y0i, 0, h - 1) * w, np.clip(y0i + 1, 0, h - 1) * w
+    flat = img.reshape(h * w, -1)  # one flat gather per tap is much faster than 2-D fancy indexing
+
+    def tap(row: np.ndarray, col: np.ndarray) -> np.ndarray:
+        return np.take(flat, row + col, axis=0)
+
+    top = tap(ya, xa) * (1 - ax) + tap(ya, xb) * ax
+    bottom = tap(yb, xa) * (1 - ax) + tap(yb, xb) * ax
     return (top * (1 - ay) + bottom * ay).astype(np.float32)
 
 
