@@ -1,0 +1,260 @@
+"""``bundle check``: everything a bundle claims, verified against its files.
+
+Order: the manifest (format, version gate, schema), then every listed file (present, size,
+SHA-256; no unlisted files), then the NPU files (tensor names, shapes and quantization of the
+manifest against ``npu.tflite``, and ``npu.tflite`` against ``npu_qdq.onnx``), the boundary
+tensors (against the NPU tensors, remaps recomputed), the GPU weight blocks and the golden
+arrays (inside their files, sizes matching shape and dtype), and the schedule (every pass,
+resource and weight block it names exists).  Each problem is one line naming the file or tensor.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError
+from .boundary import texture_remaps
+from .gpu_plan import WEIGHTS_PREFIX
+from .manifest import bundle_files, read_manifest, schema_problems, sha256_bytes, sha256_file
+from .npu_files import NpuModel, nchw_to_nhwc, read_onnx, read_tflite
+
+DTYPE_SIZES = {"int8": 1, "uint8": 1, "int16": 2, "float16": 2, "float32": 4, "int32": 4}
+
+
+def check_bundle(bundle: str | Path) -> list[str]:
+    """Problems found in ``bundle`` (empty: the bundle is sound).
+
+    A missing or foreign manifest and a newer format version raise ``UserError`` instead: nothing
+    else can be checked then.
+    """
+    root = Path(bundle)
+    manifest = read_manifest(root)
+    problems = schema_problems(manifest)
+    if problems:  # the later checks index into the structure the schema guarantees
+        return problems
+    problems += check_files(root, manifest)
+    bad_files = {line.split(":", 1)[0] for line in problems}
+    problems += check_npu(root, manifest, bad_files)
+    problems += check_boundary(manifest)
+    problems += check_weights(root, manifest, bad_files)
+    problems += check_golden(root, manifest, bad_files)
+    problems += check_schedule(manifest)
+    return problems
+
+
+def check_files(root: Path, manifest: dict) -> list[str]:
+    """Every listed file exists with its size and hash; nothing unlisted lies in the bundle."""
+    problems = []
+    listed = manifest["files"]
+    for name, entry in listed.items():
+        path = root / name
+        if not path.is_file():
+            problems.append(f"{name}: missing (listed in manifest.json)")
+            continue
+        size = path.stat().st_size
+        if size != entry["bytes"]:
+            problems.append(f"{name}: {size} bytes, manifest.json says {entry['bytes']}")
+        elif sha256_file(path) != entry["sha256"]:
+            problems.append(f"{name}: SHA-256 differs from manifest.json (file changed or corrupt)")
+    for name in bundle_files(root):
+        if name not in listed:
+            problems.append(f"{name}: not listed in manifest.json")
+    return problems
+
+
+def check_npu(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
+    """Manifest NPU tensors vs ``npu.tflite``, and ``npu.tflite`` vs ``npu_qdq.onnx``."""
+    npu = manifest["npu"]
+    tflite_name, onnx_name = npu["model"], npu["onnx"]
+    if tflite_name in bad_files or onnx_name in bad_files:
+        return []  # already reported; the contents are not the exported ones
+    try:
+        tflite = read_tflite((root / tflite_name).read_bytes(), tflite_name)
+        onnx = read_onnx((root / onnx_name).read_bytes(), onnx_name)
+    except UserError as e:
+        return [str(e)]
+    problems = _manifest_vs_tflite(npu, tflite, tflite_name)
+    problems += _tflite_vs_onnx(tflite, onnx, tflite_name, onnx_name)
+    return problems
+
+
+def _manifest_vs_tflite(npu: dict, tflite: NpuModel, name: str) -> list[str]:
+    problems = []
+    for role in ("inputs", "outputs"):
+        if npu[role] != getattr(tflite, role):
+            problems.append(f"{name}: {role} are {getattr(tflite, role)}, manifest.json says {npu[role]}")
+    listed = {t["name"] for t in npu["tensors"]}
+    for entry in npu["tensors"]:
+        t = tflite.tensors.get(entry["name"])
+        where = f"{name}: tensor '{entry['name']}'"
+        if t is None:
+            problems.append(f"{where}: not in the file (listed in manifest.json)")
+            continue
+        if t.shape != entry["shape"]:
+            problems.append(f"{where}: shape {t.shape}, manifest.json says {entry['shape']}")
+        if t.dtype != entry["dtype"]:
+            problems.append(f"{where}: dtype {t.dtype}, manifest.json says {entry['dtype']}")
+        if t.scale != [entry["scale"]] or t.zero_point != [entry["zero_point"]]:
+            problems.append(f"{where}: quantization (scale {t.scale}, zero point {t.zero_point}) differs from "
+                            f"manifest.json (scale {entry['scale']}, zero point {entry['zero_point']})")
+    for t in tflite.activations():
+        if t.name not in listed:
+            problems.append(f"{name}: tensor '{t.name}' is not listed in manifest.json npu.tensors")
+    return problems
+
+
+def _tflite_vs_onnx(tflite: NpuModel, onnx: NpuModel, tflite_name: str, onnx_name: str) -> list[str]:
+    problems = []
+    for role in ("inputs", "outputs"):
+        if getattr(tflite, role) != getattr(onnx, role):
+            problems.append(f"{onnx_name}: {role} {getattr(onnx, role)} differ from {tflite_name} {getattr(tflite, role)}")
+    for io in tflite.inputs + tflite.outputs:
+        a, b = tflite.tensors[io], onnx.tensors.get(io)
+        if b is not None and len(b.shape) == 4 and nchw_to_nhwc(b.shape) != a.shape:
+            problems.append(f"{onnx_name}: tensor '{io}' shape {b.shape} (NCHW) does not match {tflite_name} {a.shape} (NHWC)")
+    for t in tflite.tensors.values():
+        if not t.scale:
+            continue
+        other = onnx.tensors.get(t.name)
+        if other is None or not other.scale:
+            problems.append(f"{onnx_name}: tensor '{t.name}' has no quantization (it has in {tflite_name})")
+            continue
+        if other.scale != t.scale or other.zero_point != t.zero_point:
+            problems.append(f"{onnx_name}: tensor '{t.name}' quantization differs from {tflite_name} "
+                            f"(scale {_brief(other.scale)} vs {_brief(t.scale)}, zero point {_brief(other.zero_point)} vs {_brief(t.zero_point)})")
+    return problems
+
+
+def _brief(values: list) -> str:
+    return str(values[0]) if len(values) == 1 else f"[{values[0]}, ... {len(values)} values]"
+
+
+def check_boundary(manifest: dict) -> list[str]:
+    """Boundary tensors agree with the NPU tensor they name; remaps match their scale and zero point."""
+    problems = []
+    tensors = {t["name"]: t for t in manifest["npu"]["tensors"]}
+    resources = {r["name"] for r in manifest["resources"]}
+    for entry in manifest["boundary"]:
+        where = f"manifest.json: boundary tensor '{entry['tensor']}'"
+        t = tensors.get(entry["tensor"])
+        if t is None:
+            problems.append(f"{where}: not an NPU tensor")
+            continue
+        for key in ("shape", "dtype", "scale", "zero_point"):
+            if entry[key] != t[key]:
+                problems.append(f"{where}: {key} {entry[key]} differs from npu.tensors ({t[key]})")
+        if entry["texture_remap"] != texture_remaps(entry["scale"], entry["zero_point"]):
+            problems.append(f"{where}: texture_remap does not follow from its scale and zero point")
+        if entry["bytes"] != int(np.prod(entry["shape"])):
+            problems.append(f"{where}: bytes {entry['bytes']} != product of shape {entry['shape']}")
+        if entry["buffer"]["resource"] not in resources:
+            problems.append(f"{where}: buffer resource '{entry['buffer']['resource']}' is not in resources")
+    return problems
+
+
+def check_weights(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
+    """Each GPU weight block lies inside its file and has the recorded hash and size."""
+    weights = manifest["gpu"]["weights"]
+    name = weights["file"]
+    if name in bad_files or not (root / name).is_file():
+        return []
+    data = (root / name).read_bytes()
+    problems = []
+    for block in weights["blocks"]:
+        where = f"{name}: weight block '{block['name']}'"
+        end = block["offset"] + block["bytes"]
+        if end > len(data):
+            problems.append(f"{where}: bytes {block['offset']}..{end} run past the end of the file ({len(data)} bytes)")
+            continue
+        if block["bytes"] != int(np.prod(block["shape"])) * DTYPE_SIZES[weights["dtype"]]:
+            problems.append(f"{where}: {block['bytes']} bytes do not hold shape {block['shape']} of {weights['dtype']}")
+        if block["offset"] % weights["alignment"]:
+            problems.append(f"{where}: offset {block['offset']} is not a multiple of {weights['alignment']}")
+        if sha256_bytes(data[block["offset"]:end]) != block["sha256"]:
+            problems.append(f"{where}: SHA-256 differs from manifest.json")
+    return problems
+
+
+def check_golden(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
+    """Golden arrays: listed files, shapes that fit the bundle's sizes, sizes that match shape x dtype."""
+    problems = []
+    listed = manifest["files"]
+    expected_shapes = golden_shapes(manifest)
+    for frame in manifest["golden"]["frames"]:
+        for key, array in frame["arrays"].items():
+            name = array["file"]
+            if key in expected_shapes and array["shape"] != expected_shapes[key]:
+                problems.append(f"{name}: golden '{key}' has shape {array['shape']}, the bundle's sizes need {expected_shapes[key]}")
+            if name not in listed:
+                problems.append(f"{name}: golden array '{key}' of frame {frame['index']} is not listed in files")
+                continue
+            if name in bad_files:
+                continue
+            expected = int(np.prod(array["shape"])) * DTYPE_SIZES[array["dtype"]]
+            if listed[name]["bytes"] != expected:
+                problems.append(f"{name}: {listed[name]['bytes']} bytes, shape {array['shape']} of {array['dtype']} needs {expected}")
+    return problems
+
+
+def golden_shapes(manifest: dict) -> dict[str, list[int]]:
+    """Shapes of the golden arrays implied by the bundle's LR and HR sizes."""
+    (w, h), (hw, hh) = manifest["lr_size"], manifest["hr_size"]
+    return {"color": [h, w, 3], "depth": [h, w, 1], "motion": [h, w, 2], "npu_input": [1, hh, hw, 3],
+            "npu_output": [1, hh, hw, 3], "display": [hh, hw, 3]}
+
+
+def check_schedule(manifest: dict) -> list[str]:
+    """Every name the schedule uses is defined and fits: shaders, resources (kind and image format),
+    weight blocks, NPU tensors."""
+    problems = []
+    passes = {p["name"]: p for p in manifest["gpu"]["passes"]}
+    resources = {r["name"]: r for r in manifest["resources"]}
+    blocks = {b["name"] for b in manifest["gpu"]["weights"]["blocks"]}
+    npu = manifest["npu"]
+    for i, step in enumerate(manifest["schedule"]["steps"]):
+        where = f"manifest.json: schedule step {i}"
+        if step["kind"] == "npu":
+            for tensor, resource in {**step["inputs"], **step["outputs"]}.items():
+                if tensor not in npu["inputs"] + npu["outputs"]:
+                    problems.append(f"{where}: '{tensor}' is not an input or output of {npu['model']}")
+                if resources.get(resource, {}).get("kind") != "buffer":
+                    problems.append(f"{where}: '{resource}' is not a buffer in resources")
+            continue
+        shader = passes.get(step["pass"])
+        if shader is None:
+            problems.append(f"{where}: pass '{step['pass']}' is not in gpu.passes")
+            continue
+        where = f"{where} ({step['pass']})"
+        declared = {b["name"]: b for b in shader["bindings"]}
+        for name, target in step["bind"].items():
+            binding = declared.get(name)
+            if binding is None:
+                problems.append(f"{where}: binds '{name}', which the shader does not declare")
+                continue
+            problem = _binding_problem(binding, target, resources, blocks)
+            if problem:
+                problems.append(f"{where}: '{name}' -> '{target}': {problem}")
+        missing = set(declared) - set(step["bind"])
+        if missing:
+            problems.append(f"{where}: nothing bound to {', '.join(sorted(missing))}")
+    return problems
+
+
+def _binding_problem(binding: dict, target: str, resources: dict, blocks: set[str]) -> str | None:
+    """Why ``target`` cannot serve ``binding`` (None if it can)."""
+    if target.startswith(WEIGHTS_PREFIX):
+        if target[len(WEIGHTS_PREFIX):] not in blocks:
+            return "no such weight block"
+        return None if binding["kind"] == "buffer" else f"a weight block bound to a {binding['kind']}"
+    resource = resources.get(target)
+    if resource is None:
+        return "not in resources"
+    if (binding["kind"] == "buffer") != (resource["kind"] == "buffer"):
+        return f"a {resource['kind']} bound to a {binding['kind']}"
+    if binding["kind"] != "buffer" and binding.get("array", False) != (resource["kind"] == "texture2d_array"):
+        return f"a {resource['kind']} where the shader declares {'an array' if binding.get('array') else 'a 2D'} texture"
+    if binding["kind"] == "image" and resource["format"] != binding["format"]:
+        return f"format {resource['format']}, the image unit is declared {binding['format']}"
+    return None

@@ -1,0 +1,61 @@
+"""``mnss-kit export``: a deployment bundle (manifest, NPU graph, GPU shaders and weights, golden frames)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+HELP = "write a deployment bundle: manifest.json, npu.tflite, npu_qdq.onnx, GPU shaders + weights, golden frames"
+PROFILES = ("tflite_reference", "tflite_optimized", "xnnpack")  # golden.PROFILE_RESOLVERS
+METHODS = ("minmax", "percentile", "entropy", "mse")  # quantize.command.METHODS
+PLACEMENTS = ("default", "all-gpu", "aa-on-npu", "auto")  # split.plan.PLACEMENTS
+DEFAULT_RESOLUTION = "1280x720"
+DEFAULT_GOLDEN_FRAMES = 3
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", metavar="MODEL",
+                        help="checkpoint path or shipped name (quantized here), or a directory written by `mnss-kit quantize`")
+    parser.add_argument("--out", required=True, metavar="BUNDLE", help="bundle directory to write")
+    parser.add_argument("--checkpoint", metavar="CKPT",
+                        help="with a quantize directory: the checkpoint it was quantized from (GPU weights and config)")
+    parser.add_argument("--resolution", metavar="WxH",
+                        help=f"output (HR) size the bundle runs at (default {DEFAULT_RESOLUTION}; a quantize directory fixes it)")
+    parser.add_argument("--device", metavar="NAME", help="device profile (configs/devices): records the GPU/NPU placement and estimates")
+    parser.add_argument("--placement", choices=PLACEMENTS, default="default", help="placement mode for --device (default: the model's split)")
+    parser.add_argument("--data", metavar="DIR",
+                        help="dataset for calibration, and for golden frames when its LR size matches (default: render)")
+    parser.add_argument("--method", choices=METHODS, default="minmax", help="activation range method when quantizing (default: minmax)")
+    parser.add_argument("--profile", choices=PROFILES, default="tflite_reference",
+                        help="numerics profile of the golden frames and the shaders' NPU-input rounding (default: tflite_reference)")
+    parser.add_argument("--golden-frames", type=int, default=DEFAULT_GOLDEN_FRAMES, metavar="N",
+                        help=f"consecutive golden frames (default {DEFAULT_GOLDEN_FRAMES})")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing bundle directory")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    from .pipeline import ExportRequest, export
+
+    request = ExportRequest(
+        model=args.model,
+        out=Path(args.out),
+        checkpoint=args.checkpoint,
+        resolution=args.resolution,
+        device=args.device,
+        placement=args.placement,
+        data=Path(args.data) if args.data else None,
+        method=args.method,
+        profile=args.profile,
+        golden_frames=args.golden_frames,
+        overwrite=args.overwrite,
+        progress=not args.no_progress,
+    )
+    manifest = export(request)
+    files = manifest["files"]
+    total = sum(f["bytes"] for f in files.values())
+    w, h = manifest["hr_size"]
+    print(f"wrote {request.out}: {manifest['model']['id']} x{manifest['scale']} at {w}x{h}, "
+          f"{len(manifest['schedule']['steps'])} steps, {len(manifest['golden']['frames'])} golden frames, "
+          f"{len(files)} files ({total / 1e6:.1f} MB), format version {manifest['format_version']}")
+    return 0

@@ -1,0 +1,172 @@
+"""The NPU files of a bundle: quantized from a checkpoint at the bundle's size, or taken from ``mnss-kit quantize``.
+
+A quantized graph has fixed shapes, and calibration data rarely has the phone's output size.
+Scales and zero points do not depend on the image size, so :func:`quantize_at` calibrates
+at the data's size with the quantize stage's own entry function and then :func:`retarget` s
+the graph: the module is traced again at the bundle's size and every tensor takes the new
+shape, keeping its quantization and (for constants) its stored integers unchanged.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError
+
+log = logging.getLogger(__name__)
+QUANTIZED_FILES = ("npu.tflite", "npu_qdq.onnx")
+CALIBRATION_SAMPLES = 24  # the quantize command's default
+
+
+@dataclass
+class NpuArtifacts:
+    """``npu.tflite`` and ``npu_qdq.onnx`` bytes, and how they were made (plain data for the manifest)."""
+
+    tflite: bytes
+    onnx: bytes
+    quantization: dict = field(default_factory=dict)
+
+
+def retarget(graph, module, hr_size: tuple[int, int]):
+    """``graph`` (quantized, NHWC) with every activation shape traced again for an ``hr_size`` = (W, H) input.
+
+    Graph inputs must be images at the output size (the reconstruction net's).  Quantization,
+    constants and op structure are copied unchanged; only shapes and size options follow the
+    new trace.  ``ValueError`` if the new trace does not have the same tensors.
+    """
+    import torch
+
+    from ..quantize.trace import trace
+
+    width, height = hr_size
+    examples = []
+    for name in graph.inputs:
+        n, _, _, c = graph.tensors[name].shape
+        examples.append(torch.zeros(n, c, height, width))
+    fresh = trace(module, examples)
+    out = copy.deepcopy(graph)
+    for name in out.activations():
+        t = out.tensors[name]
+        base = name if name in fresh.tensors else name.rsplit(".", 1)[0]  # QUANTIZE conversions: "<tensor>.<dtype>"
+        if base not in fresh.tensors:
+            raise ValueError(f"tensor {name} is not in the graph traced at {width}x{height}")
+        new = tuple(fresh.tensors[base].shape)
+        if len(new) != len(t.shape) or new[0] != t.shape[0] or new[-1] != t.shape[-1]:
+            raise ValueError(f"tensor {name}: traced shape {new} differs from {t.shape} beyond height and width")
+        t.shape = new
+    fresh_ops = {op.outputs[0]: op for op in fresh.ops}
+    for op in out.ops:
+        twin = fresh_ops.get(op.outputs[0])
+        if twin is not None and "size" in twin.options:
+            op.options["size"] = twin.options["size"]
+    out.validate()
+    return out
+
+
+def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], method: str, progress: bool) -> NpuArtifacts:
+    """Quantize ``model.recon`` (defaults of ``mnss-kit quantize``) and write its files for ``hr_size``.
+
+    ``data``: dataset directory for calibration; None renders the quantize stage's default
+    calibration data.
+    """
+    import tempfile
+
+    from ..quantize import command as quantize_command
+    from ..quantize.calibrate import record_stage_inputs
+    from ..quantize.onnx_writer import to_onnx
+    from ..quantize.stage import QuantizeOptions, quantize_module
+    from ..quantize.tflite_writer import to_tflite
+
+    with tempfile.TemporaryDirectory(prefix="mnss-export-calibration-") as tmp:
+        root = Path(data) if data else render_calibration_data(Path(tmp), progress)
+        sequences = quantize_command.open_data(root, model.scale)
+        log.info("recording %d reconstruction-net inputs from recurrent runs on %s", CALIBRATION_SAMPLES, root)
+        samples = record_stage_inputs(model, quantize_command.checked_frames(sequences), "recon", limit=CALIBRATION_SAMPLES)
+    art = quantize_module(model.recon, samples, QuantizeOptions(method=method), name=name)
+    graph = retarget(art.graph, model.recon, hr_size)
+    calibrated_at = list(art.graph.tensors[art.graph.inputs[0]].shape[1:3][::-1])
+    report = art.report
+    quantization = {
+        "source": "checkpoint",
+        "method": method,
+        "calibration_samples": len(samples),
+        "calibration_data": str(data) if data else f"rendered configs/data/{quantize_command.DEFAULT_DATA_CONFIG}.yaml",
+        "calibrated_at_size": calibrated_at,
+        **report_summary(report),
+    }
+    return NpuArtifacts(to_tflite(graph), to_onnx(graph).SerializeToString(), quantization)
+
+
+def render_calibration_data(root: Path, progress: bool) -> Path:
+    """The frames ``mnss-kit quantize`` calibrates on by default, rendered into ``root``.
+
+    Calibration reads the first :data:`CALIBRATION_SAMPLES` LR frames of the default data
+    config's sequences in directory order, so only those sequences are rendered, with one HR
+    sample per pixel: LR frames do not depend on the HR sample count, and the unused HR
+    reference is what makes the full render slow.
+    """
+    from dataclasses import replace
+
+    from ..quantize.command import DEFAULT_DATA_CONFIG
+    from ..render.config import load_render_config
+    from ..render.writer import render_dataset
+
+    config = load_render_config(DEFAULT_DATA_CONFIG, ["hr_samples=1"])
+    needed, frames = [], 0
+    for seq in sorted(config.sequences, key=lambda s: s.name):
+        if frames >= CALIBRATION_SAMPLES:
+            break
+        needed.append(seq)
+        frames += seq.frames
+    render_dataset(replace(config, sequences=needed), root, progress=progress)
+    return root
+
+
+def load_quantized_dir(directory: Path) -> tuple[NpuArtifacts, dict]:
+    """The files of an ``mnss-kit quantize`` output directory, and its ``report.json`` (``{}`` if absent)."""
+    missing = [n for n in QUANTIZED_FILES if not (directory / n).is_file()]
+    if missing:
+        raise UserError(f"{directory}: not an mnss-kit quantize directory (missing {', '.join(missing)})")
+    report = {}
+    if (directory / "report.json").is_file():
+        try:
+            report = json.loads((directory / "report.json").read_text())
+        except json.JSONDecodeError as e:
+            raise UserError(f"{directory / 'report.json'}: not valid JSON ({e})") from None
+    quantization = {
+        "source": "directory",
+        "directory": str(directory),
+        "method": report.get("method"),
+        "calibration_samples": report.get("samples"),
+        "calibration_data": report.get("data"),
+        **report_summary(report),
+    }
+    art = NpuArtifacts((directory / "npu.tflite").read_bytes(), (directory / "npu_qdq.onnx").read_bytes(), quantization)
+    return art, report
+
+
+def report_summary(report: dict) -> dict:
+    """The quantize report's headline numbers, as finite JSON numbers (None where absent)."""
+    agreement = report.get("agreement") or {}
+    return {
+        "int16_tensors": [str(n) for n in report.get("int16") or []],
+        "output_psnr_db_vs_float": {str(k): _number((v or {}).get("psnr_db")) for k, v in (report.get("output") or {}).items()},
+        "runtime_agreement_lsb": {str(k): _number(v) for k, v in agreement.items() if not isinstance(v, (dict, list))},
+    }
+
+
+def _number(value) -> int | float | None:
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        return int(value)
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None

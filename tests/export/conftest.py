@@ -1,0 +1,52 @@
+"""One small bundle per session: the tiny MNSS x2 config with perturbed weights, exported at 64x48
+from the synthetic dataset (which also gives the golden frames).  Copy it before changing it."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size, so its frames serve as golden frames
+
+
+def tiny_checkpoint(path: Path, seed: int = 0) -> Path:
+    """An untrained mnss_x2_tiny checkpoint with the zero-initialised last convs perturbed (so every
+    tensor carries signal and quantization is not trivial)."""
+    import torch
+
+    from mnss_kit.model import checkpoint
+    from mnss_kit.model.config import load_model_config
+    from mnss_kit.model.families import build_model
+
+    torch.manual_seed(seed)
+    model = build_model(load_model_config("mnss_x2_tiny")).eval()
+    with torch.no_grad():
+        for name, p in model.named_parameters():
+            if name.startswith(("recon", "aa")):
+                p.add_(torch.randn_like(p) * 0.05)
+    return checkpoint.save(path, model, {"jitter_pattern": "mnss"})
+
+
+@pytest.fixture(scope="session")
+def tiny_ckpt(tmp_path_factory) -> Path:
+    return tiny_checkpoint(tmp_path_factory.mktemp("export_model") / "tiny.pt")
+
+
+@pytest.fixture(scope="session")
+def bundle(tmp_path_factory, tiny_ckpt, synthetic_dataset) -> Path:
+    """A bundle written by ``mnss-kit export`` (the CLI entry), read-only."""
+    from mnss_kit.cli import main
+
+    out = tmp_path_factory.mktemp("export_bundle") / "bundle"
+    code = main(["export", str(tiny_ckpt), "--out", str(out), "--resolution", BUNDLE_SIZE, "--data", str(synthetic_dataset),
+                 "--device", "snapdragon_8_gen_1", "--no-progress"])
+    assert code == 0
+    return out
+
+
+@pytest.fixture
+def bundle_copy(bundle, tmp_path) -> Path:
+    """A private copy of the session bundle, free to change."""
+    return Path(shutil.copytree(bundle, tmp_path / "bundle"))
