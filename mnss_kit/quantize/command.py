@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
         options = QuantizeOptions(method=args.method, int16=args.a16, qat_steps=args.qat)
         art = quantize_module(model.recon, samples, options, name=name)
         art.report["data"] = str(args.data) if args.data else f"rendered configs/data/{DEFAULT_DATA_CONFIG}.yaml"
-        art.report["checkpoint"] = {"family": record.get("family"), "scale": record.get("scale"), "code_version": record.get("code_version")}
+        art.report["checkpoint"] = {"path": str(args.model), "family": record.get("family"), "scale": record.get("scale"), "code_version": record.get("code_version")}
         if args.pipeline_frames:
             art.report["pipeline"] = pipeline_psnr(model, art, sequences, args.pipeline_frames)
     with atomic_directory(out, overwrite=args.overwrite) as staging:
