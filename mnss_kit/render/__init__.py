@@ -1,1 +1,9 @@
-"""Built-in G-buffer renderer (OpenGL through EGL) and scene import."""
+"""Built-in G-buffer renderer (OpenGL 3.3 through EGL) and scene import.
+
+    config.py     data config (configs/data/*.yaml) -> SequenceConfig
+    scenes/       built-in scenes (arena, town, flight) and the glTF/OBJ import hook
+    camera.py     matrices, jitter, keyframed camera paths (camera-path YAML format)
+    renderer.py   shadow map, deferred G-buffer, lighting, particles; LR + 16-spp HR reference
+    writer.py     frames -> dataset sequences (sharding, resume, meta.json)
+    command.py    ``mnss-kit render``
+"""

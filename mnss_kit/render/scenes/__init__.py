@@ -1,0 +1,29 @@
+"""Built-in scenes modelled on three game genres, and the scene-file import path."""
+
+from __future__ import annotations
+
+from ...errors import UserError
+from ..camera import CameraPath
+from ..config import RenderConfig, SequenceConfig, resolve_asset
+from ..scene import Scene, Sun, static_instances
+from . import arena, flight, town
+
+BUILDERS = {"arena": arena.build, "town": town.build, "flight": flight.build}
+
+
+def build_scene(seq: SequenceConfig, cfg: RenderConfig) -> Scene:
+    """The scene of one sequence: a built-in one (seeded) or an imported file with its camera path."""
+    camera = None if seq.camera == "auto" else CameraPath.load(resolve_asset(seq.camera, cfg, "camera path"))
+    duration = seq.frames / seq.fps
+    if seq.is_builtin:
+        return BUILDERS[seq.scene](seq.seed, duration, seq.start_time, camera, seq.particles, seq.animated_light)
+    from ..importers import load_meshes  # glTF/OBJ reader, imported only when needed
+
+    meshes = load_meshes(resolve_asset(seq.scene, cfg, "scene file"))
+    if not meshes:
+        raise UserError(f"scene file '{seq.scene}' contains no meshes")
+    lo = min(float(m.positions.min()) for m in meshes)
+    hi = max(float(m.positions.max()) for m in meshes)
+    radius = max(hi - lo, 1.0)
+    return Scene(seq.scene, meshes, static_instances(meshes), camera, Sun(animated=seq.animated_light),
+                 near=max(radius * 1e-4, 0.01), far=radius * 4.0, shadow_radius=radius / 2)

@@ -1,0 +1,168 @@
+"""Render a data config into the dataset format, frame by frame, shardable and resumable.
+
+Every frame is a pure function of its time, so the frames of all sequences
+(in config order) are dealt round-robin to ``N`` shards: shard ``I`` renders
+global frames ``k`` with ``k % N == I``.  Every shard writes the same
+``meta.json`` for every sequence, so shard outputs merge by copying
+directories on top of each other.  A frame whose buffer files all exist is
+skipped (resume after an interruption); each file is written atomically.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..config import to_dict
+from ..dataset.format import (
+    BUFFERS, FORMAT_NAME, FORMAT_VERSION, FrameMeta, META_FILE, MotionConvention, SequenceMeta, buffer_path, write_buffer, write_meta,
+)
+from ..errors import UserError
+from ..ops.jitter import jitter_sequence
+from .camera import perspective
+from .config import RenderConfig, SequenceConfig
+from .scene import Scene
+
+log = logging.getLogger(__name__)
+RENDERER_NAME = "mnss-kit builtin deferred renderer (OpenGL 3.3, EGL)"
+
+
+@dataclass
+class RenderSummary:
+    rendered: int
+    skipped: int
+    seconds: float
+    sequences: list[str]
+
+
+def frame_times(seq: SequenceConfig) -> np.ndarray:
+    """``(frames,)`` float64 time of each frame in seconds."""
+    return seq.start_time + np.arange(seq.frames) / seq.fps
+
+
+def previous_time(seq: SequenceConfig, index: int) -> float:
+    """Time of the frame before ``index``: exactly the previous frame's time (one frame earlier for frame 0),
+    so each cut falls into exactly one ``(previous, current]`` interval."""
+    times = frame_times(seq)
+    return float(times[index - 1]) if index > 0 else float(times[0] - 1.0 / seq.fps)
+
+
+def sequence_meta(seq: SequenceConfig, scene: Scene) -> SequenceMeta:
+    """Metadata of a whole sequence; depends only on the config, never on a shard."""
+    times = frame_times(seq)
+    jitter = jitter_sequence(seq.jitter, seq.scale, seq.frames)
+    aspect = seq.lr_size[0] / seq.lr_size[1]
+    frames = []
+    for i, t in enumerate(times):
+        state = scene.camera.state(float(t))
+        proj = perspective(state.fov, aspect, scene.near, scene.far)
+        reset = i == 0 or scene.camera.is_cut(previous_time(seq, i), float(t))
+        frames.append(FrameMeta(
+            index=i, jitter=(float(jitter[i, 0]), float(jitter[i, 1])), reset=bool(reset), time=float(t),
+            view=[float(v) for v in state.view().ravel()], proj=[float(v) for v in proj.ravel()],
+        ))
+    return SequenceMeta(
+        format=FORMAT_NAME, version=FORMAT_VERSION, name=seq.name, scale=seq.scale,
+        lr_size=tuple(seq.lr_size), hr_size=seq.hr_size, jitter_pattern=seq.jitter, frames=frames,
+        near=scene.near, far=scene.far, reverse_z=False, depth_encoding="hardware",
+        motion=MotionConvention(units="pixels", points_to="previous", y_axis="down", scale=1.0),
+        color_space="linear_hdr", exposure=seq.exposure,
+        buffers={res: list(BUFFERS[res]) for res in ("lr", "hr")},
+        scene={**to_dict(seq), "renderer": RENDERER_NAME, "normal_space": "world",
+               "hr_buffers": "1 sample at pixel centres; reference is the box-filtered mean of hr_samples",
+               "identity": "color = emissive + fbeta * L (L demodulated radiance; fbeta = 0 on sky)"},
+    )
+
+
+def frame_complete(seq_dir: Path, index: int) -> bool:
+    return all(buffer_path(seq_dir, res, name, index).is_file() for res in ("lr", "hr") for name in BUFFERS[res])
+
+
+def write_frame(seq_dir: Path, index: int, buffers: dict[str, dict[str, np.ndarray]]) -> None:
+    for res, named in buffers.items():
+        for name, image in named.items():
+            if not np.all(np.isfinite(image)):
+                raise RuntimeError(f"renderer produced non-finite values in {res}/{name} of frame {index}")
+            write_buffer(seq_dir, res, name, index, image)
+
+
+def _prepare_meta(seq_dir: Path, meta: SequenceMeta, overwrite: bool) -> None:
+    path = seq_dir / META_FILE
+    text = json.dumps(to_dict(meta), indent=2) + "\n"
+    if path.is_file() and not overwrite:
+        if json.loads(path.read_text()) != json.loads(text):
+            raise UserError(f"{seq_dir} holds a sequence rendered with a different config (use --overwrite or another --out)")
+        return
+    write_meta(seq_dir, meta)
+
+
+def parse_shard(text: str | None) -> tuple[int, int]:
+    """``'I/N'`` -> (I, N) with 0 <= I < N."""
+    if not text:
+        return 0, 1
+    try:
+        i, n = (int(v) for v in text.split("/"))
+    except ValueError:
+        raise UserError(f"--shard expects I/N (e.g. 0/4), got '{text}'") from None
+    if n < 1 or not 0 <= i < n:
+        raise UserError(f"--shard {text}: need 0 <= I < N")
+    return i, n
+
+
+def render_dataset(cfg: RenderConfig, out_dir: str | Path, shard: tuple[int, int] = (0, 1),
+                   overwrite: bool = False, progress: bool = True) -> RenderSummary:
+    """Render the frames of shard ``shard`` of every sequence in ``cfg`` under ``out_dir/<name>/``."""
+    from tqdm import tqdm
+
+    from .renderer import FrameSpec, Renderer
+    from .scenes import build_scene
+
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UserError(f"--out {out_dir} exists and is not a directory")
+    index, count = shard
+    offsets = np.cumsum([0] + [s.frames for s in cfg.sequences])
+    mine = [[f for f in range(s.frames) if (offsets[k] + f) % count == index] for k, s in enumerate(cfg.sequences)]
+    start = time.perf_counter()
+    rendered = skipped = 0
+    bar = tqdm(total=sum(map(len, mine)), unit="frame", disable=not progress, dynamic_ncols=True)
+    try:
+        for seq, frames in zip(cfg.sequences, mine):
+            seq_dir = out_dir / seq.name
+            scene = build_scene(seq, cfg)
+            meta = sequence_meta(seq, scene)
+            _prepare_meta(seq_dir, meta, overwrite)
+            todo = [f for f in frames if overwrite or not frame_complete(seq_dir, f)]
+            skipped += len(frames) - len(todo)
+            bar.update(len(frames) - len(todo))
+            if not todo:
+                continue
+            bar.set_description(seq.name)
+            renderer = Renderer(scene, tuple(seq.lr_size), seq.scale, seq.hr_samples)
+            # EXR compression of frame k overlaps with rendering frame k + 1 (one frame in flight)
+            with ThreadPoolExecutor(max_workers=1) as pool:
+                pending = None
+                try:
+                    for f in todo:
+                        fm = meta.frames[f]
+                        buffers = renderer.render(FrameSpec(fm.time, previous_time(seq, f), fm.jitter))
+                        if pending is not None:
+                            pending.result()
+                            bar.update(1)
+                        pending = pool.submit(write_frame, seq_dir, f, buffers)
+                        rendered += 1
+                    pending.result()
+                    bar.update(1)
+                finally:
+                    renderer.release()
+    finally:
+        bar.close()
+    seconds = time.perf_counter() - start
+    log.info("rendered %d frames (%d already present) in %.1f s", rendered, skipped, seconds)
+    return RenderSummary(rendered, skipped, seconds, [s.name for s in cfg.sequences])

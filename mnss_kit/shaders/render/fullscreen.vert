@@ -1,0 +1,6 @@
+#version 330
+// One triangle covering the screen at the far plane (depth 1).
+void main() {
+    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+    gl_Position = vec4(p * 2.0 - 1.0, 1.0, 1.0);
+}
