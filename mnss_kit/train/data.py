@@ -1,0 +1,121 @@
+"""Training data: rendering missing data, and a window stream that can be resumed at any step.
+
+The stream.  Each rank sees an endless sequence of ``(pass, window index)``
+draws: pass ``p`` is ``DistributedSampler(shuffle=True, seed=seed)`` at epoch
+``p`` over all windows, so the ranks read disjoint shards of every pass, and
+the crop of a window is drawn by the dataset from ``(seed, p, index)``.  Step
+``s`` of a rank consumes draws ``s*B .. s*B + B - 1`` of its stream.  The
+whole stream is a function of (seed, world size, batch size), not of the
+worker processes or of earlier runs, so resuming at step ``s`` only needs
+``s`` and reads exactly the windows and crops an uninterrupted run would.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Iterator
+
+import torch
+from torch.utils.data import DataLoader, Dataset, DistributedSampler, Sampler
+
+from ..dataset.loader import WindowDataset
+from ..errors import UserError
+from .config import DataSection, TrainConfig
+
+log = logging.getLogger(__name__)
+
+
+class StepSampler(Sampler):
+    """``(pass, index)`` draws of one rank for steps ``start_step .. end_step - 1`` (``batch_size`` per step)."""
+
+    def __init__(self, windows: int, batch_size: int, rank: int, world_size: int, seed: int, start_step: int, end_step: int):
+        self.windows, self.batch_size = windows, batch_size
+        self.rank, self.world_size, self.seed = rank, world_size, seed
+        self.start_step, self.end_step = start_step, end_step
+        self.per_pass = len(self._pass(0))
+
+    def _pass(self, p: int) -> list[int]:
+        shard = DistributedSampler(range(self.windows), num_replicas=self.world_size, rank=self.rank, shuffle=True, seed=self.seed)
+        shard.set_epoch(p)
+        return list(shard)
+
+    def __len__(self) -> int:
+        return max(0, self.end_step - self.start_step) * self.batch_size
+
+    def __iter__(self) -> Iterator[tuple[int, int]]:
+        first = self.start_step * self.batch_size
+        p, offset = divmod(first, self.per_pass)
+        remaining = len(self)
+        while remaining > 0:
+            order = self._pass(p)[offset:]
+            for index in order[:remaining]:
+                yield p, index
+            remaining -= min(remaining, len(order))
+            p, offset = p + 1, 0
+
+
+class PassWindows(Dataset):
+    """Wraps a ``WindowDataset`` so an item ``(pass, index)`` gets the crop drawn for that pass."""
+
+    def __init__(self, windows: WindowDataset):
+        self.windows = windows
+
+    def __len__(self) -> int:
+        return len(self.windows)
+
+    def __getitem__(self, draw: tuple[int, int]) -> dict[str, torch.Tensor]:
+        p, index = draw
+        self.windows.set_epoch(p)
+        return self.windows[index]
+
+
+def open_windows(cfg: TrainConfig, dirs: list[Path], crop: int | None, progress: bool) -> WindowDataset:
+    """The windows of ``dirs`` with the decoded-frame cache (built on first use)."""
+    size = None if crop is None else (crop, crop)
+    return WindowDataset([str(d) for d in dirs], cfg.frames_per_window, size, seed=cfg.seed, cache=True, cache_dir=cfg.cache_dir, progress=progress)
+
+
+def step_loader(windows: WindowDataset, cfg: TrainConfig, rank: int, world_size: int, start_step: int) -> DataLoader:
+    """Batches of ``cfg.batch_size`` windows for steps ``start_step .. cfg.steps - 1`` of this rank."""
+    sampler = StepSampler(len(windows), cfg.batch_size, rank, world_size, cfg.seed, start_step, cfg.steps)
+    return DataLoader(
+        PassWindows(windows),
+        batch_size=cfg.batch_size,
+        sampler=sampler,
+        num_workers=cfg.num_workers,
+        persistent_workers=False,
+        prefetch_factor=4 if cfg.num_workers else None,
+        drop_last=False,
+    )
+
+
+def ensure_data(cfg: TrainConfig, data: DataSection | None, progress: bool = True) -> None:
+    """Render the training (and validation) data named in ``data:`` when its directory is missing."""
+    wanted = [("train", cfg.train_dirs(), data.train if data else None), ("val", cfg.val_dirs(), data.val if data else None)]
+    for role, dirs, render_config in wanted:
+        missing = [d for d in dirs if not d.exists()]
+        if not missing:
+            continue
+        if render_config is None:
+            raise UserError(f"{role} data {missing[0]} does not exist and the config's data: section names no render config for it")
+        if len(dirs) != 1:
+            raise UserError(f"data.{role} renders one directory, but train.{role}_data lists {len(dirs)}")
+        render(render_config, dirs[0], progress)
+
+
+def render(render_config: str, out_dir: Path, progress: bool) -> None:
+    """Render the data config ``render_config`` (a path or a name under configs/data/) into ``out_dir``."""
+    try:
+        from ..render.config import load_render_config
+        from ..render.writer import render_dataset
+    except ImportError as e:
+        raise UserError(f"cannot render {out_dir}: the renderer is not available in this installation ({e})") from None
+    cfg = load_render_config(render_config)
+    # Render beside the target and rename when complete: a killed render never looks like data,
+    # and the next run continues it (the renderer skips frames already written).
+    staging = out_dir.with_name(out_dir.name + ".partial")
+    log.info("rendering %s into %s", render_config, out_dir)
+    summary = render_dataset(cfg, staging, progress=progress)
+    staging.replace(out_dir)
+    log.info("rendered %d frames in %.1f s", summary.rendered, summary.seconds)
