@@ -80,7 +80,7 @@ class CachedFrames:
         if key not in self._maps:
             self._maps[key] = self.cache.open(res, buffer)
         block = self._maps[key][start : start + count, :, crop.y : crop.y + crop.height, crop.x : crop.x + crop.width]
-        return np.ascontiguousarray(block, dtype=np.float32)
+        return np.array(block, dtype=np.float32)  # a copy: memmap views are read-only
 
 
 @dataclass
