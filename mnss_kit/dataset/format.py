@@ -39,29 +39,22 @@ class BufferSpec:
 
 # Buffers by resolution.  Depth and motion stay float32: half float loses
 # sub-pixel motion precision beyond ~64 px and depth precision near the far plane.
+_RGB_HALF = BufferSpec(("R", "G", "B"), True)
+_SCALAR_HALF = BufferSpec(("Y",), True)
+# G-buffers and geometry exist at both resolutions.
+_SHARED_BUFFERS = {
+    "depth": BufferSpec(("Z",), False),
+    "motion": BufferSpec(("R", "G"), False),
+    "albedo": _RGB_HALF,
+    "normal": _RGB_HALF,
+    "roughness": _SCALAR_HALF,
+    "metallic": _SCALAR_HALF,
+    "fbeta": _RGB_HALF,
+    "emissive": _RGB_HALF,
+}
 BUFFERS: dict[str, dict[str, BufferSpec]] = {
-    "lr": {
-        "color": BufferSpec(("R", "G", "B"), True),
-        "depth": BufferSpec(("Z",), False),
-        "motion": BufferSpec(("R", "G"), False),
-        "albedo": BufferSpec(("R", "G", "B"), True),
-        "normal": BufferSpec(("R", "G", "B"), True),
-        "roughness": BufferSpec(("Y",), True),
-        "metallic": BufferSpec(("Y",), True),
-        "fbeta": BufferSpec(("R", "G", "B"), True),
-        "emissive": BufferSpec(("R", "G", "B"), True),
-    },
-    "hr": {
-        "reference": BufferSpec(("R", "G", "B"), True),
-        "depth": BufferSpec(("Z",), False),
-        "motion": BufferSpec(("R", "G"), False),
-        "albedo": BufferSpec(("R", "G", "B"), True),
-        "normal": BufferSpec(("R", "G", "B"), True),
-        "roughness": BufferSpec(("Y",), True),
-        "metallic": BufferSpec(("Y",), True),
-        "fbeta": BufferSpec(("R", "G", "B"), True),
-        "emissive": BufferSpec(("R", "G", "B"), True),
-    },
+    "lr": {"color": _RGB_HALF, **_SHARED_BUFFERS},  # colour is jittered
+    "hr": {"reference": _RGB_HALF, **_SHARED_BUFFERS},  # the supersampled target
 }
 REQUIRED_BUFFERS = {"lr": ("color", "depth", "motion"), "hr": ("reference",)}
 
