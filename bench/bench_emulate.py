@@ -10,10 +10,14 @@ medians over the timed frames (the first frame, a reset, is a warm-up and not ti
   process CPU time per frame with the load average (on a busy shared machine wall time
   overstates the work);
 * per NPU operator: seconds, and for convolutions the accumulation and requantization split;
+* per GPU pass: process CPU seconds per frame (median);
 * for every convolution, the requantization by the ``ops.quant.requantize`` definition versus the
   emulator's :class:`~mnss_kit.emulate.fast.Requantizer` (checked equal on the same accumulators).
 
-    python bench/bench_emulate.py --out bench/results/emulate.json [--profile tflite-ref] [--frames 6]
+    python bench/bench_emulate.py --out bench/results/emulate.json [--profile tflite-ref] [--frames 6] [--workdir DIR]
+
+``--workdir`` keeps the exported bundle and data there and reuses them on the next run (the
+export takes half a minute and needs torch).
 """
 
 from __future__ import annotations
@@ -34,6 +38,8 @@ HR_SIZE = (1280, 720)
 
 
 def make_bundle(root: Path, frames: int) -> tuple[Path, Path]:
+    if (root / "bundle" / "manifest.json").is_file() and (root / "data" / "pan").is_dir():  # kept by --workdir
+        return root / "bundle", root / "data" / "pan"
     import torch
 
     from mnss_kit.cli import main
@@ -98,31 +104,59 @@ def op_profile(emulator, npu_input: np.ndarray) -> list[dict]:
     return rows
 
 
+def time_gpu_passes(passes, seconds: dict) -> None:
+    """Wrap every pass method of ``passes`` to add its process CPU seconds to ``seconds[name]``."""
+    for name in ("warp", "inpaint_weights", "inpaint_blend", "avgpool", "conv3x3", "insert_pack", "unpack_history", "sharpen"):
+        method = getattr(passes, name)
+
+        def timed(*args, _method=method, _name=name, **kwargs):
+            start = time.process_time()
+            try:
+                return _method(*args, **kwargs)
+            finally:
+                seconds[_name] = seconds.get(_name, 0.0) + time.process_time() - start
+
+        setattr(passes, name, timed)
+
+
+def run_frames(emulator, frames: list[dict]) -> tuple[list[dict], list[float], list[dict], object]:
+    """Every frame in order; per timed frame (all but the first): stage seconds, process CPU, GPU pass CPU."""
+    timings, cpu, gpu, last = [], [], [], None
+    pass_seconds: dict[str, float] = {}
+    time_gpu_passes(emulator.passes, pass_seconds)
+    for t, frame in enumerate(frames):
+        pass_seconds.clear()
+        cpu_start = time.process_time()
+        result = emulator.run_frame(frame, keep_all=t == len(frames) - 1)
+        if t > 0:
+            timings.append(result.seconds)
+            cpu.append(time.process_time() - cpu_start)
+            gpu.append(dict(pass_seconds))
+        last = result
+    return timings, cpu, gpu, last
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("bench/results/emulate.json"))
     parser.add_argument("--profile", default="tflite-ref", help="NPU profile (default: tflite-ref)")
-    parser.add_argument("--frames", type=int, default=6, help="frames run; the first is a warm-up (default 6)")
+    parser.add_argument("--frames", type=int, default=6,
+                        help="frames run (at most those of a reused --workdir); the first is a warm-up (default 6)")
+    parser.add_argument("--workdir", type=Path, default=None, help="keep (and reuse) the bundle and data here")
     args = parser.parse_args()
 
     from mnss_kit.dataset.format import read_meta
     from mnss_kit.emulate.frame_loop import Emulator
     from mnss_kit.emulate.sequence import sequence_frames
 
+    load_start = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="mnss-bench-emulate-") as tmp:
         start = time.perf_counter()
-        bundle, seq = make_bundle(Path(tmp), args.frames)
+        bundle, seq = make_bundle(args.workdir or Path(tmp), args.frames)
         export_seconds = time.perf_counter() - start
         emulator = Emulator(bundle, args.profile, "numpy", "numpy")
         frames = [f for _, f, _ in sequence_frames(seq, read_meta(seq), args.frames)]
-        timings, cpu, last = [], [], None
-        for t, frame in enumerate(frames):
-            cpu_start = time.process_time()
-            result = emulator.run_frame(frame, keep_all=t == len(frames) - 1)
-            if t > 0:
-                timings.append(result.seconds)
-                cpu.append(time.process_time() - cpu_start)
-            last = result
+        timings, cpu, gpu, last = run_frames(emulator, frames)
         ops = op_profile(emulator, last.tensors[emulator.spec.npu_input])
         n_ops = len(emulator.spec.graph.ops)
 
@@ -136,7 +170,9 @@ def main() -> int:
         "frames_timed": len(timings),
         "median_seconds": medians,
         "median_cpu_seconds_total": statistics.median(cpu),  # all threads; near wall time on a quiet machine
-        "load_average_1min": os.getloadavg()[0],
+        "median_gpu_pass_cpu_seconds": {k: statistics.median(g.get(k, 0.0) for g in gpu) for k in gpu[0]},
+        "load_average_start": list(load_start),  # 1, 5, 15 minutes
+        "load_average_end": list(os.getloadavg()),
         "goal_seconds_per_frame": 2.0,
         "meets_goal": medians["total"] < 2.0,
         "npu_ops": n_ops,
@@ -146,14 +182,15 @@ def main() -> int:
             "fast": sum(r["requantize_fast_seconds"] for r in conv),
             "accumulate": sum(r["accumulate_seconds"] for r in conv),
         },
-        "export_seconds": export_seconds,
+        "export_seconds": export_seconds,  # near 0 when --workdir held a bundle
         "machine": {"platform": platform.platform(), "processor": platform.processor(), "python": platform.python_version(),
                     "numpy": np.__version__},
         "note": "shared machine: compare numbers from one run only",
     }
     atomic_write_json(args.out, result)
     print(f"median {medians['total']:.3f} s per frame (GPU before {medians['gpu_before_npu']:.3f}, NPU {medians['npu']:.3f}, "
-          f"GPU after {medians['gpu_after_npu']:.3f}); wrote {args.out}")
+          f"GPU after {medians['gpu_after_npu']:.3f}), CPU {result['median_cpu_seconds_total']:.3f} s, "
+          f"load {load_start[0]:.1f} -> {result['load_average_end'][0]:.1f}; wrote {args.out}")
     return 0
 
 

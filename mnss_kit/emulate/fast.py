@@ -1,4 +1,4 @@
-"""Faster, bit-identical requantization for the emulator's convolutions.
+"""Faster, bit-identical convolutions and elementwise ops for the emulator's NPU stage.
 
 ``ops.quant.requantize`` is the readable definition of each runtime's
 requantization; under the TFLite profiles (Q31 multiplier and shift) it makes
@@ -23,11 +23,16 @@ does; the wrap is skipped when the caller knows the values fit.  Float32
 profiles (XNNPACK, ONNX Runtime) are already a couple of vector passes and
 use ``quant.requantize`` unchanged.
 
+:func:`conv2d` runs a convolution in blocks of output rows: the definition's exact
+accumulation (``kernels.conv_accumulators``) on each block, then the requantization while the
+block's int64 accumulators are still in cache (whole-frame int64 passes were memory bound).
+
 ADD and MUL of two int8 tensors have only 65536 distinct operand pairs: :class:`PairTable`
 evaluates the kernel once on every pair and looks results up (about 10x faster on a 720p
 frame).  That is exact whenever the kernel's result depends on the two values only, which
-holds for every formula except LiteRT's optimized ADD on a tensor whose size is not a
-multiple of its vector width (the tail rounds differently); that case keeps the kernel.
+holds for every formula except a vector formula (``quant_ops.vector_width``, LiteRT's optimized
+ADD) on a tensor whose size is not a multiple of its vector width (the tail rounds
+differently); that case keeps the kernel.
 ``tests/emulate/test_frame_loop_fast.py`` asserts equality with the definitions for every
 kernel set.
 """
@@ -107,11 +112,33 @@ def fits_int32(k: int, bias: np.ndarray | None) -> bool:
     return bound < 2**31
 
 
+_BLOCK_VALUES = 1 << 18  # accumulators per block of output rows (2 MB of int64): a cache-sized working set
+
+
 def conv2d(x: np.ndarray, x_q: QParams, weights: np.ndarray, bias: np.ndarray | None, requantizer: Requantizer,
            stride: int = 1, padding: str = "SAME") -> np.ndarray:
-    """``kernels.conv2d`` with a prepared :class:`Requantizer`: (N,H,W,Ci) int8 -> (N,Ho,Wo,Co) int8."""
-    acc = kernels.conv_accumulators(x, x_q[1], weights, bias, stride, padding)
-    return requantizer(acc, fits_int32(int(np.prod(weights.shape[1:])), bias))
+    """``kernels.conv2d`` with a prepared :class:`Requantizer`: (N,H,W,Ci) int8 -> (N,Ho,Wo,Co) int8.
+
+    The output is computed in blocks of rows, each through ``kernels.conv_accumulators`` (the
+    same exact sums) and requantized while its int64 accumulators are still in cache; the
+    input is padded once with its zero point, which contributes ``x - x_zp = 0`` exactly as the
+    definition's zero padding of ``x - x_zp`` does.
+    """
+    co, kh, kw, ci = weights.shape
+    n, h, w, _ = x.shape
+    ho, top = kernels.output_size(h, kh, stride, padding)
+    wo, left = kernels.output_size(w, kw, stride, padding)
+    rows_in, cols_in = (ho - 1) * stride + kh, (wo - 1) * stride + kw
+    padded = np.full((n, max(rows_in, h + top), max(cols_in, w + left), ci), x_q[1], dtype=np.int8)
+    padded[:, top:top + h, left:left + w] = x
+    safe = fits_int32(kh * kw * ci, bias)
+    out = np.empty((n, ho, wo, co), dtype=np.int8)
+    rows = max(1, _BLOCK_VALUES // (n * wo * co))
+    for y0 in range(0, ho, rows):
+        y1 = min(ho, y0 + rows)
+        window = padded[:, y0 * stride:(y1 - 1) * stride + kh, :cols_in]
+        out[:, y0:y1] = requantizer(kernels.conv_accumulators(window, x_q[1], weights, bias, stride, "VALID"), safe)
+    return out
 
 
 class DepthwiseRequantizers:
@@ -165,6 +192,5 @@ class PairTable:
 
 def pair_table_is_exact(kind: str, kernel_set: KernelSet, size: int) -> bool:
     """True if ``kind`` (ADD or MUL) under ``kernel_set`` on ``size`` values depends on the operand values only."""
-    if kind == "ADD" and kernel_set.add == "tflite_neon16":
-        return size % quant_ops.ADD_VECTOR_WIDTH == 0
-    return True
+    width = quant_ops.vector_width(kind, kernel_set.formula(kind))
+    return width == 0 or size % width == 0

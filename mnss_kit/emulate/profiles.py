@@ -1,16 +1,24 @@
 """Kernel sets the emulator reproduces: which formula each int8 op uses, as data.
 
-A kernel set names one runtime's CPU kernels.  Its fields pick formulas
-defined once in ``mnss_kit.ops.quant`` (requantization profiles) and
-``mnss_kit.ops.quant_ops`` (ADD, MUL, pooling, resize, requantize); the
-kernels in ``emulate.kernels`` read these fields and never branch on the
-kernel set's name.  Every entry was checked bit for bit against
-ai-edge-litert 2.3.0 (x86-64) by tests/emulate.
+A kernel set names one runtime's CPU kernels.  Its fields are formula names defined once in
+``mnss_kit.ops.quant`` (requantization profiles: ``quant.PROFILES``) and
+``mnss_kit.ops.quant_ops`` (``quant_ops.FORMULAS`` per op; a profile name there means the
+``ops.quant`` definition under that profile), checked when the set is built.  The kernels in
+``emulate.kernels`` read these fields and never branch on the kernel set's name.  Every entry
+was checked bit for bit against its runtime on x86-64 by tests/emulate (ai-edge-litert 2.3.0,
+onnxruntime 1.31).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from ..ops import quant, quant_ops
+
+# KernelSet field -> quant_ops.FORMULAS key of the op it chooses the formula of
+_OP_FIELDS = {"add": "ADD", "mul": "MUL", "average_pool": "AVERAGE_POOL_2D", "resize_bilinear": "RESIZE_BILINEAR",
+              "quantize": "QUANTIZE", "dequantize": "DEQUANTIZE", "requantize": "REQUANTIZE"}
+_PROFILE_FIELDS = ("numerics", "depthwise_numerics", "depthwise_tail_numerics")
 
 
 @dataclass(frozen=True)
@@ -27,7 +35,7 @@ class KernelSet:
         (LiteRT's optimized output stage handles 8 channels per vector step and
         the rest with the scalar reference code).
     add, mul, average_pool, resize_bilinear, quantize, dequantize, requantize
-        Formula names of ``ops.quant_ops``.
+        Formula names of ``ops.quant_ops`` (``quant_ops.FORMULAS``).
     """
 
     name: str
@@ -44,6 +52,16 @@ class KernelSet:
     dequantize: str
     requantize: str
     description: str
+
+    def __post_init__(self):
+        for name in _PROFILE_FIELDS:
+            quant.get_profile(getattr(self, name))  # ValueError on an unknown profile
+        for name, op in _OP_FIELDS.items():
+            quant_ops.check_formula(op, getattr(self, name))
+
+    def formula(self, op: str) -> str:
+        """The formula name this set uses for ``op`` (a ``quant_ops.FORMULAS`` key, e.g. ``"ADD"``)."""
+        return getattr(self, next(name for name, kind in _OP_FIELDS.items() if kind == op))
 
 
 KERNEL_SETS: dict[str, KernelSet] = {
@@ -86,14 +104,31 @@ KERNEL_SETS: dict[str, KernelSet] = {
         depthwise_numerics="xnnpack",
         depthwise_vector_channels=0,
         depthwise_tail_numerics="xnnpack",
-        add="float32",
-        mul="float32",
+        add="xnnpack",
+        mul="xnnpack",
         average_pool="tflite",
         resize_bilinear="xnnpack_q11",
         quantize="xnnpack",
         dequantize="exact",
         requantize="xnnpack_q8",
         description="XNNPACK delegate (OpResolverType.AUTO), builtin kernels for ops it does not take",
+    ),
+    "onnxruntime": KernelSet(
+        name="onnxruntime",
+        resolver=None,
+        numerics="onnxruntime",
+        depthwise_numerics="onnxruntime",
+        depthwise_vector_channels=0,
+        depthwise_tail_numerics="onnxruntime",
+        add="onnxruntime",
+        mul="onnxruntime",
+        average_pool="onnxruntime",
+        resize_bilinear="onnxruntime",
+        quantize="onnxruntime",
+        dequantize="exact",
+        requantize="onnxruntime",
+        description="ONNX Runtime CPU execution provider on npu_qdq.onnx with its QDQ groups fused to "
+                    "QLinear kernels (QLinearConv, QLinearAdd, QLinearMul, QLinearAveragePool, QLinearSigmoid)",
     ),
 }
 

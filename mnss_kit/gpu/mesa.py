@@ -3,10 +3,13 @@
 Desktop OpenGL 4.3+ accepts ``#version 310 es`` compute shaders (GL_ARB_ES3_1_compatibility),
 so the files that ship to the phone run unchanged.  :class:`MesaPasses` has one method per pass,
 with the arguments and results of :class:`mnss_kit.gpu.reference.ReferencePasses`: numpy in,
-numpy out.  Bindings come from ``passes.PASSES``.
+numpy out.  Bindings come from ``passes.PASSES``; the shader of each pass is the package's
+(flattened) unless one is given by pass name, e.g. the files of a bundle.
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 
@@ -54,19 +57,44 @@ def _vec2(jitter) -> tuple[float, float]:
 
 
 class MesaPasses:
-    """The runtime passes on the GPU of an OpenGL context (one per instance; reuse it)."""
+    """The runtime passes on the GPU of an OpenGL context (one per instance; reuse it).
 
-    def __init__(self, ctx=None):
+    ``sources`` maps pass names to shader source: GLSL text, or the ``Path`` of a file (read
+    when the pass first runs and named in errors).  With ``sources`` given, every pass that
+    runs must be in it; without, each pass compiles the package's own flattened entry file.
+    """
+
+    def __init__(self, ctx=None, sources: dict[str, str | Path] | None = None):
         self.ctx = ctx if ctx is not None else create_context()
         self.ctx.gc_mode = "auto"  # release per-call textures and buffers when they are dropped
+        self.sources = sources
         self._programs: dict[str, object] = {}
 
     # -- plumbing ------------------------------------------------------------------------------
     def program(self, name: str):
-        """The compiled compute shader of pass ``name``."""
+        """The compiled compute shader of pass ``name``; ``UserError`` naming the source if it does not compile."""
         if name not in self._programs:
-            self._programs[name] = self.compile(flatten(P.PASSES[name].entry))
+            origin, text = self._source(name)
+            try:
+                self._programs[name] = self.compile(text)
+            except Exception as e:  # moderngl raises plain Exceptions with the driver's compile log
+                first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+                raise UserError(f"{origin}: does not compile on this GL driver ({first})") from None
         return self._programs[name]
+
+    def _source(self, name: str) -> tuple[str, str]:
+        """(where the shader of pass ``name`` comes from, its GLSL text)."""
+        if self.sources is None:
+            return P.PASSES[name].entry, flatten(P.PASSES[name].entry)
+        if name not in self.sources:
+            raise UserError(f"no shader source for GPU pass {name} (given: {', '.join(self.sources) or 'none'})")
+        source = self.sources[name]
+        if isinstance(source, Path):
+            try:
+                return str(source), source.read_text(encoding="utf-8", errors="replace")
+            except OSError as e:
+                raise UserError(f"{source}: cannot read the shader ({e.strerror})") from None
+        return name, source
 
     def compile(self, source: str):
         """A compute shader from GLSL source (tests use it for helper functions)."""

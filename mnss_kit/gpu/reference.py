@@ -10,6 +10,9 @@ because image stores may truncate), r32f / rg32f values stay float32, rgba8 disp
 
 Arrays are ``(H, W, C)`` (HR) or ``(h, w, C)`` (LR) float32; jitter is ``(2,)`` LR pixels,
 taken as float32 as the shaders' uniforms are.
+
+The 3x3 convolution (inpainting weights and the AA net) is ``ops.inpaint.conv3x3`` unless the
+passes are built with another function of identical values (``mnss_kit.emulate.fast_gpu``).
 """
 
 from __future__ import annotations
@@ -41,7 +44,13 @@ def as_jitter(jitter) -> np.ndarray:
 
 class ReferencePasses:
     """The runtime passes in numpy.  Inputs are rounded to their storage format on entry, as an
-    upload to that texture format would round them."""
+    upload to that texture format would round them.
+
+    ``conv``: ``(h, w, Cin) float32, weight (Cout, Cin, 3, 3), bias (Cout,) -> (h, w, Cout) float32``
+    with the values of ``ops.inpaint.conv3x3`` (the default)."""
+
+    def __init__(self, conv=inpaint.conv3x3):
+        self.conv = conv
 
     def warp(self, history, prev_depth, motion, prev_jitter, jitter, scale: int):
         """warp_pass.  history (H,W,3), prev_depth (h,w,1), motion (h,w,2) LR pixels ->
@@ -54,7 +63,7 @@ class ReferencePasses:
     def inpaint_weights(self, color, depth, warped, warped_depth, jitter, scale: int, conv: Conv3x3, activation: str):
         """inpaint_weights_pass -> LR weights (h,w,1) float32 in [0, 1]."""
         past = subpixel.extract_samples(to_half(warped), as_jitter(jitter), scale)
-        return inpaint.lr_weights(to_half(color), depth, past, warped_depth, conv.weight, conv.bias, activation)
+        return inpaint.lr_weights(to_half(color), depth, past, warped_depth, conv.weight, conv.bias, activation, self.conv)
 
     def inpaint_blend(self, color, warped, lr_weight, jitter, scale: int, weight_upsample: str, reset: bool):
         """inpaint_blend_pass -> I_R (H,W,3) fp16 values; I_U on a reset (``warped``, ``lr_weight`` unused)."""
@@ -71,7 +80,7 @@ class ReferencePasses:
     def conv3x3(self, x, conv: Conv3x3, epilogue: str, residual=None):
         """conv3x3_pass: (h,w,Cin) -> (h,w,Cout) fp16 values.  ``epilogue``: none, relu, or
         residual_clamp (``clamp(residual + conv, 0, 1)`` with ``residual`` (h,w,Cout))."""
-        acc = inpaint.conv3x3(to_half(x), conv.weight, conv.bias)
+        acc = self.conv(to_half(x), conv.weight, conv.bias)
         if epilogue == "relu":
             acc = np.maximum(acc, np.float32(0))
         elif epilogue == "residual_clamp":

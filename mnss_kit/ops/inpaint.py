@@ -74,12 +74,14 @@ def lr_weights(
     weight: np.ndarray,
     bias: np.ndarray,
     activation: str = "sigmoid",
+    conv=conv3x3,
 ) -> np.ndarray:
     """LR weights ``(h, w, 1)`` float32 in [0, 1]: 1 = take the current frame, 0 = keep the history.
 
-    ``weight`` ``(1, 4, 3, 3)`` and ``bias`` ``(1,)`` are the learned conv.
+    ``weight`` ``(1, 4, 3, 3)`` and ``bias`` ``(1,)`` are the learned conv.  ``conv`` computes
+    it: :func:`conv3x3` or an implementation with identical values (a faster one).
     """
-    return activate(conv3x3(difference(color, depth, past_color, past_depth), weight, bias), activation)
+    return activate(conv(difference(color, depth, past_color, past_depth), weight, bias), activation)
 
 
 def weight_map(lr: np.ndarray, jitter: tuple[float, float], scale: int, mode: str = "bilinear") -> np.ndarray:

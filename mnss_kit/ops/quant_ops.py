@@ -1,35 +1,63 @@
 """Per-runtime integer formulas of the int8 ops beyond convolution (reference definitions).
 
-``mnss_kit.ops.quant`` defines quantize/dequantize and the requantization
-of CONV_2D per runtime profile; this module adds the ops whose formulas
-differ in other ways.  Each function takes a *formula name* (plain data,
-chosen per kernel set by ``mnss_kit.emulate.profiles``) and states what the
-runtime does, as found in LiteRT's and XNNPACK's sources and checked bit for
-bit against ai-edge-litert 2.3.0 on x86-64 (tests/emulate).
+``mnss_kit.ops.quant`` defines requantization, ADD, QUANTIZE and the tables once per runtime
+profile; this module names every formula a runtime kernel uses for an op, so that a kernel set
+(``mnss_kit.emulate.profiles``) is plain data: one formula name per op.  :data:`FORMULAS` lists
+the names.  A name of a ``quant.PROFILES`` entry means "the ``ops.quant`` definition under that
+profile" (ADD, QUANTIZE): each formula lives in one place.  The other names are defined here
+and state what the runtime does, as found in LiteRT's, XNNPACK's and ONNX Runtime's sources and
+checked bit for bit against ai-edge-litert 2.3.0 and onnxruntime 1.31 on x86-64
+(tests/emulate).
 
 Two things a reader would not guess:
 
-* LiteRT's "optimized" builtin kernels on x86 are its ARM NEON code compiled
-  through an SSE emulation of the NEON intrinsics.  Vector loops process 16
-  (ADD) or 8 (DEPTHWISE output stage) values at a time with NEON rounding,
-  and the leftover tail runs the scalar reference formula.  Where a value
-  sits in the tensor therefore decides its rounding.
-* ``SaturatingRoundingDoublingHighMul`` (and NEON ``vqrdmulh``) round ties
-  toward +infinity, not away from zero; ``RoundingDivideByPOT`` rounds ties
-  away from zero.
+* LiteRT's "optimized" builtin kernels on x86 are its ARM NEON code compiled through an SSE
+  emulation of the NEON intrinsics.  Vector loops process 16 (ADD, int8 QUANTIZE) or 8 (float
+  QUANTIZE, DEQUANTIZE) values at a time with the vector rounding, and the leftover tail runs
+  the scalar reference formula.  Where a value sits in the tensor therefore decides its
+  rounding (:func:`vector_width`).
+* ONNX Runtime on x86-64 runs a QDQ AveragePool as a float kernel (dequantize, float32 window
+  sum in order, divide, quantize) and a QDQ Resize as dequantize, float32 bilinear resize,
+  quantize; both are reproduced here operation by operation.
 
 All arithmetic is in int64 or in explicitly float32 numpy arrays.
 """
 
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 
 from . import quant
 
 INT8_MIN, INT8_MAX = quant.INT8_MIN, quant.INT8_MAX
-ADD_LEFT_SHIFT = quant.ADD_LEFT_SHIFT["int8"]
-ADD_VECTOR_WIDTH = 16  # values per NEON iteration of LiteRT's optimized int8 ADD
+QParams = tuple[float, int]  # (scale, zero_point)
+
+PROFILE_FORMULAS = tuple(quant.PROFILES)  # the ops.quant definition under that profile
+FORMULAS: dict[str, tuple[str, ...]] = {
+    "ADD": PROFILE_FORMULAS + ("tflite_neon16",),
+    "MUL": ("tflite", "xnnpack", "onnxruntime"),
+    "AVERAGE_POOL_2D": ("tflite", "onnxruntime"),
+    "RESIZE_BILINEAR": ("tflite", "xnnpack_q11", "onnxruntime"),
+    "QUANTIZE": PROFILE_FORMULAS + ("tflite_neon8",),
+    "DEQUANTIZE": ("exact", "tflite_neon8"),
+    "REQUANTIZE": ("tflite_reference", "tflite_optimized", "tflite_neon16", "xnnpack_q8", "onnxruntime"),
+}
+# values per vector iteration of the formulas whose rounding depends on the position in the tensor
+VECTOR_WIDTHS = {("ADD", "tflite_neon16"): 16, ("QUANTIZE", "tflite_neon8"): 8, ("DEQUANTIZE", "tflite_neon8"): 8,
+                 ("REQUANTIZE", "tflite_neon16"): 16}
+
+
+def check_formula(op: str, formula: str) -> None:
+    """``ValueError`` unless ``formula`` is one of ``FORMULAS[op]``."""
+    if formula not in FORMULAS[op]:
+        raise ValueError(f"unknown {op} formula {formula!r} (one of: {', '.join(FORMULAS[op])})")
+
+
+def vector_width(op: str, formula: str) -> int:
+    """Values per vector iteration if the formula rounds the tail of a tensor differently, else 0."""
+    return VECTOR_WIDTHS.get((op, formula), 0)
 
 
 def _clamp_int8(x: np.ndarray, clamp: tuple[int, int] | None) -> np.ndarray:
@@ -37,136 +65,141 @@ def _clamp_int8(x: np.ndarray, clamp: tuple[int, int] | None) -> np.ndarray:
     return np.clip(x, lo, hi).astype(np.int8)
 
 
-def rounding_doubling_high_mul_neon(a: np.ndarray, b: int) -> np.ndarray:
-    """NEON ``vqrdmulh``: ``(2ab + 2^31) >> 32`` saturated, i.e. ``round(ab / 2^31)`` with ties up.
-
-    ``a`` int32 values (int64 array), ``b`` an int32 multiplier.  Returns int64.
-    """
-    product = np.asarray(a, dtype=np.int64) * np.int64(b)  # |product| < 2^62
-    high = (2 * product + (1 << 31)) >> 32
-    return np.clip(high, quant.INT32_MIN, quant.INT32_MAX)
+def _by_position(width: int, body: Callable, tail: Callable, *arrays: np.ndarray) -> np.ndarray:
+    """A vector kernel over flattened ``arrays``: full blocks of ``width`` values through ``body``,
+    the rest through ``tail``; both map flat arrays to flat results.  Returns the input shape."""
+    flat = [np.asarray(a).reshape(-1) for a in arrays]
+    split = flat[0].size // width * width
+    out = np.concatenate([body(*(f[:split] for f in flat)), tail(*(f[split:] for f in flat))])
+    return out.reshape(np.shape(arrays[0]))
 
 
 # ---------------------------------------------------------------------------
 # ADD
 
 
-def _add_multipliers(sa: float, sb: float, so: float) -> tuple[tuple[int, int], tuple[int, int], tuple[int, int]]:
-    """LiteRT ADD Prepare: rescale both inputs to ``2 * max(s_a, s_b)`` and that to the output (float64 from float32)."""
-    twice_max = 2.0 * max(sa, sb)
-    return (quant.quantize_multiplier_smaller_than_one(sa / twice_max),
-            quant.quantize_multiplier_smaller_than_one(sb / twice_max),
-            quant.quantize_multiplier_smaller_than_one(twice_max / ((1 << ADD_LEFT_SHIFT) * so)))
-
-
-def _add_neon(a: np.ndarray, b: np.ndarray, sa: float, sb: float, so: float, zo: int) -> np.ndarray:
-    """LiteRT optimized int8 ADD, vector body: a truncating shift by ``20 + input_shift``, then ``vqrdmulh``.
-
-    ``a``, ``b`` int64 values already offset by their zero points.  The output
-    multiplier is applied with ``vqrdmulh`` and ``RoundingDivideByPOT``.
-    """
-    (ma, sha), (mb, shb), (mo, sho) = _add_multipliers(sa, sb, so)
-    scaled_a = rounding_doubling_high_mul_neon((a << ADD_LEFT_SHIFT) >> -sha, ma)
-    scaled_b = rounding_doubling_high_mul_neon((b << ADD_LEFT_SHIFT) >> -shb, mb)
-    total = rounding_doubling_high_mul_neon(scaled_a + scaled_b, mo)
-    return quant.rounding_divide_by_pot(total, -sho) + zo
-
-
-def _add_reference(a: np.ndarray, b: np.ndarray, sa: float, sb: float, so: float, zo: int) -> np.ndarray:
-    """LiteRT reference int8 ADD on offset inputs (see ``quant.add``)."""
-    (ma, sha), (mb, shb), (mo, sho) = _add_multipliers(sa, sb, so)
-    scaled_a = quant.multiply_by_quantized_multiplier(a << ADD_LEFT_SHIFT, ma, sha, "away_from_zero")
-    scaled_b = quant.multiply_by_quantized_multiplier(b << ADD_LEFT_SHIFT, mb, shb, "away_from_zero")
-    return quant.multiply_by_quantized_multiplier(scaled_a + scaled_b, mo, sho, "away_from_zero") + zo
-
-
-ADD_FORMULAS = ("tflite_reference", "tflite_neon16", "float32")
-
-
-def add(a: np.ndarray, a_q: tuple[float, int], b: np.ndarray, b_q: tuple[float, int], out_q: tuple[float, int],
-        formula: str, clamp: tuple[int, int] | None = None) -> np.ndarray:
+def add(a: np.ndarray, a_q: QParams, b: np.ndarray, b_q: QParams, out_q: QParams, formula: str,
+        clamp: tuple[int, int] | None = None) -> np.ndarray:
     """Quantized ADD of two int8 tensors of one shape -> int8.
 
-    ``tflite_reference``: ``quant.add`` with the q31 profile.
-    ``tflite_neon16``: LiteRT optimized kernel; the flattened tensor is cut
-    into blocks of 16, full blocks take :func:`_add_neon`, the tail the reference.
-    ``float32``: XNNPACK (``quant.add`` with a float32 profile).
+    A profile name: ``quant.add`` under that profile.  ``tflite_neon16``: LiteRT's optimized
+    kernel; the flattened tensor is cut into blocks of 16, full blocks take the vector formula
+    (``quant.add`` under ``tflite_optimized``: the inputs rescaled with one rounding; NEON's
+    truncating pre-shift loses no bits while the smaller input scale is at least 2^-20 of the
+    larger) and the tail the reference formula.
     """
-    if formula == "tflite_reference":
-        return quant.add(a, a_q, b, b_q, out_q, "tflite_reference", clamp=clamp)
-    if formula == "float32":
-        return quant.add(a, a_q, b, b_q, out_q, "xnnpack", clamp=clamp)
-    if formula != "tflite_neon16":
-        raise ValueError(f"unknown ADD formula {formula!r}")
+    check_formula("ADD", formula)
+    if formula in PROFILE_FORMULAS:
+        return quant.add(a, a_q, b, b_q, out_q, formula, clamp=clamp)
     a, b = np.broadcast_arrays(np.asarray(a), np.asarray(b))
-    sa, sb, so = (float(np.float32(q[0])) for q in (a_q, b_q, out_q))
-    fa = a.reshape(-1).astype(np.int64) - a_q[1]
-    fb = b.reshape(-1).astype(np.int64) - b_q[1]
-    body = fa.size // ADD_VECTOR_WIDTH * ADD_VECTOR_WIDTH
-    out = np.empty(fa.size, dtype=np.int64)
-    out[:body] = _add_neon(fa[:body], fb[:body], sa, sb, so, out_q[1])
-    out[body:] = _add_reference(fa[body:], fb[body:], sa, sb, so, out_q[1])
-    return _clamp_int8(out.reshape(a.shape), clamp)
+
+    def under(profile):
+        return lambda x, y: quant.add(x, a_q, y, b_q, out_q, profile, clamp=clamp)
+
+    return _by_position(vector_width("ADD", formula), under("tflite_optimized"), under("tflite_reference"), a, b)
 
 
 # ---------------------------------------------------------------------------
 # MUL
 
-MUL_FORMULAS = ("tflite", "float32")
 
-
-def mul(a: np.ndarray, a_q: tuple[float, int], b: np.ndarray, b_q: tuple[float, int], out_q: tuple[float, int],
-        formula: str, clamp: tuple[int, int] | None = None) -> np.ndarray:
+def mul(a: np.ndarray, a_q: QParams, b: np.ndarray, b_q: QParams, out_q: QParams, formula: str,
+        clamp: tuple[int, int] | None = None) -> np.ndarray:
     """Quantized MUL of two int8 tensors of one shape -> int8.
 
-    ``tflite`` (reference and optimized alike): the real multiplier
-    ``s_a * s_b / s_o`` is evaluated in float32 (LiteRT multiplies the float
-    scales before widening to double), turned into a Q31 multiplier, and
-    applied to ``(a - z_a) * (b - z_b)`` with ``MultiplyByQuantizedMultiplier``
-    (double rounding).  ``float32`` (XNNPACK): ``float32(product) * float32(s_a * s_b / s_o)``
-    rounded half to even.
+    Every runtime forms ``p = (a - z_a) * (b - z_b)`` exactly and the real multiplier
+    ``float32(float32(s_a * s_b) / s_o)`` in float32.  ``tflite`` (reference and optimized
+    alike): a Q31 multiplier of it applied to ``p`` with ``MultiplyByQuantizedMultiplier``
+    (double rounding), plus ``z_o``.  ``xnnpack``: ``float32(p) * m`` rounded half to even, plus
+    ``z_o``.  ``onnxruntime`` (MLAS QLinearMul): ``float32(float32(p) * m) + float32(z_o)`` rounded
+    half to even (the zero point joins before the rounding).
     """
+    check_formula("MUL", formula)
     (sa, za), (sb, zb), (so, zo) = a_q, b_q, out_q
     real = np.float32(np.float32(np.float32(sa) * np.float32(sb)) / np.float32(so))
     product = (np.asarray(a, dtype=np.int64) - za) * (np.asarray(b, dtype=np.int64) - zb)  # |p| <= 65025
     if formula == "tflite":
         m, shift = quant.quantize_multiplier(float(real))
-        out = quant.multiply_by_quantized_multiplier(product, m, shift, "away_from_zero")
-    elif formula == "float32":
-        out = quant.round_float((product.astype(np.float32) * real).astype(np.float32), "half_even")
+        out = quant.multiply_by_quantized_multiplier(product, m, shift, "away_from_zero") + zo
     else:
-        raise ValueError(f"unknown MUL formula {formula!r}")
-    return _clamp_int8(out + zo, clamp)
+        scaled = (product.astype(np.float32) * real).astype(np.float32)
+        if formula == "xnnpack":
+            out = quant.round_float(scaled, "half_even") + zo
+        else:
+            out = np.rint((scaled + np.float32(zo)).astype(np.float32))
+    return _clamp_int8(out, clamp)
 
 
 # ---------------------------------------------------------------------------
 # LOGISTIC, TANH: every kernel set builds a 256-entry table in float32
 
 
-def logistic(x: np.ndarray, x_q: tuple[float, int], profile: str) -> np.ndarray:
+def logistic(x: np.ndarray, x_q: QParams, profile: str) -> np.ndarray:
     """int8 LOGISTIC through ``quant.lookup_table`` of ``quant.sigmoid_f32``; output params (1/256, -128)."""
     with np.errstate(over="ignore"):  # exp overflow gives 1/inf = 0, the right limit
         table = quant.lookup_table(quant.sigmoid_f32, x_q, quant.LOGISTIC_OUTPUT, profile)
     return quant.apply_table(x, table)
 
 
-def tanh(x: np.ndarray, x_q: tuple[float, int], profile: str) -> np.ndarray:
-    """int8 TANH through ``quant.lookup_table`` of ``quant.tanh_f32``; output params (1/128, 0)."""
+def tanh(x: np.ndarray, x_q: QParams, profile: str) -> np.ndarray:
+    """int8 TANH through ``quant.lookup_table`` of ``quant.tanh_f32``; output params (1/128, 0).
+
+    ONNX Runtime keeps a QDQ Tanh as float (dequantize, ``tanh``, quantize), which gives the
+    table's values wherever its ``tanh`` and numpy's agree to the last bit.
+    """
     return quant.apply_table(x, quant.lookup_table(quant.tanh_f32, x_q, quant.TANH_OUTPUT, profile))
 
 
 # ---------------------------------------------------------------------------
 # AVERAGE_POOL_2D
 
+
 def average_pool_divide(total: np.ndarray, count: np.ndarray, formula: str) -> np.ndarray:
     """Window sum of raw int8 values / number of valid inputs (int64 arrays, broadcastable) -> int64.
 
-    ``tflite`` (every LiteRT kernel set; XNNPACK does not take int8
-    AVERAGE_POOL_2D): ``quant.average_pool_round``, ties away from zero.
+    ``tflite`` (every LiteRT kernel set; XNNPACK does not take int8 AVERAGE_POOL_2D):
+    ``quant.average_pool_round``, ties away from zero.  The ``onnxruntime`` formula does not
+    start from the integer sum: see :func:`average_pool_float`.
     """
-    if formula == "tflite":
-        return quant.average_pool_round(total, np.asarray(count, dtype=np.int64))
-    raise ValueError(f"unknown AVERAGE_POOL_2D formula {formula!r}")
+    check_formula("AVERAGE_POOL_2D", formula)
+    if formula != "tflite":
+        raise ValueError(f"AVERAGE_POOL_2D formula {formula!r} needs the float window sums (average_pool_float)")
+    return quant.average_pool_round(total, np.asarray(count, dtype=np.int64))
+
+
+def average_pool_float(x: np.ndarray, q: QParams, size: int, stride: int, out_hw: tuple[int, int],
+                       pad: tuple[int, int]) -> np.ndarray:
+    """ONNX Runtime's QLinearAveragePool (count_include_pad 0): (N, H, W, C) int8 -> (N, Ho, Wo, C) int8.
+
+    ``q`` is the input's and output's ``(scale, zero_point)``; ``pad`` the (top, left) padding.
+    Each input is dequantized to float32, the valid inputs of a window are summed in float32 in
+    row-major order, the sum divided by their number, then ``rint(mean / s + z)`` (float32).
+    When the one window is the whole (unpadded) image, ONNX Runtime takes its global-pool kernel
+    instead: the exact integer sum of ``x - z`` times ``float32(s / (s * float32(H * W)))``,
+    rounded half to even, plus ``z``.
+    """
+    s, zp = np.float32(q[0]), int(q[1])
+    n, h, w, c = x.shape
+    if (h, w) == (size, size) and tuple(out_hw) == (1, 1):  # one window, no padding on any side
+        total = np.asarray(x, np.int64).sum(axis=(1, 2), keepdims=True) - zp * h * w
+        scale = np.float32(s / np.float32(s * np.float32(h * w)))
+        return _clamp_int8(np.rint((total.astype(np.float32) * scale).astype(np.float32)) + zp, None)
+    values = quant.dequantize(x, s, zp)
+    ys = np.arange(out_hw[0]) * stride - pad[0]
+    xs = np.arange(out_hw[1]) * stride - pad[1]
+    total = np.zeros((n, *out_hw, c), dtype=np.float32)
+    count = np.zeros(out_hw, dtype=np.int64)
+    for i in range(size):
+        rows = ys + i
+        valid_rows = (rows >= 0) & (rows < h)
+        for j in range(size):
+            cols = xs + j
+            valid = valid_rows[:, None] & ((cols >= 0) & (cols < w))[None, :]
+            tap = values[:, np.clip(rows, 0, h - 1)][:, :, np.clip(cols, 0, w - 1)]
+            total += np.where(valid[None, :, :, None], tap, np.float32(0))  # adding 0.0 leaves a float sum unchanged
+            count += valid
+    mean = (total / count[None, :, :, None].astype(np.float32)).astype(np.float32)
+    return _clamp_int8(np.rint(((mean / s).astype(np.float32) + np.float32(zp)).astype(np.float32)), None)
 
 
 # ---------------------------------------------------------------------------
@@ -213,80 +246,117 @@ def _resize_xnnpack(x: np.ndarray, out_hw: tuple[int, int], half_pixel_centers: 
     return ((total + (1 << 21)) >> 22).astype(np.int8)
 
 
-RESIZE_FORMULAS = ("tflite", "xnnpack_q11")
-
-
-def resize_bilinear(x: np.ndarray, out_hw: tuple[int, int], half_pixel_centers: bool, formula: str) -> np.ndarray:
-    """int8 RESIZE_BILINEAR (align_corners False), (N, H, W, C) -> (N, Ho, Wo, C); params unchanged.
-
-    ``tflite``: LiteRT ``ResizeBilinearInteger``: positions in 1/1024 pixel, the
-    four weights multiply in int64 and the sum (in 2^-20 units) is rounded
-    half away from zero.  ``xnnpack_q11``: :func:`_resize_xnnpack`.
-    """
-    if formula == "xnnpack_q11":
-        return _resize_xnnpack(x, out_hw, half_pixel_centers)
-    if formula != "tflite":
-        raise ValueError(f"unknown RESIZE_BILINEAR formula {formula!r}")
-    n, h, w, c = x.shape
-    y0, y1, fy = _tflite_source_10bit(out_hw[0], h, half_pixel_centers)
-    x0, x1, fx = _tflite_source_10bit(out_hw[1], w, half_pixel_centers)
+def _resize_tflite(x: np.ndarray, out_hw: tuple[int, int], half_pixel_centers: bool) -> np.ndarray:
+    """LiteRT ``ResizeBilinearInteger``: four int64 weight products in 2^-20 units, rounded half away from zero."""
+    y0, y1, fy = _tflite_source_10bit(out_hw[0], x.shape[1], half_pixel_centers)
+    x0, x1, fx = _tflite_source_10bit(out_hw[1], x.shape[2], half_pixel_centers)
     v = np.asarray(x, dtype=np.int64)
     wy1, wy0 = fy[:, None, None], (1024 - fy)[:, None, None]
     wx1, wx0 = fx[None, :, None], (1024 - fx)[None, :, None]
     top = v[:, y0][:, :, x0] * wx0 + v[:, y0][:, :, x1] * wx1
     bottom = v[:, y1][:, :, x0] * wx0 + v[:, y1][:, :, x1] * wx1
-    total = top * wy0 + bottom * wy1  # value in 2^-20 units
+    total = top * wy0 + bottom * wy1
     half = 1 << 19
-    out = np.where(total > 0, (total + half) >> 20, -((-total + half) >> 20))
-    return out.astype(np.int8)
+    return np.where(total > 0, (total + half) >> 20, -((-total + half) >> 20)).astype(np.int8)
+
+
+def _onnxruntime_source(out_size: int, in_size: int):
+    """ONNX Runtime ``SetupUpsampleBilinear`` (half_pixel): taps and the float32 weights of the far and near tap."""
+    scale = np.float32(np.float32(out_size) / np.float32(in_size))
+    pos = ((np.arange(out_size, dtype=np.float32) + np.float32(0.5)) / scale).astype(np.float32) - np.float32(0.5)
+    pos = np.clip(pos.astype(np.float32), np.float32(0), np.float32(in_size - 1))
+    lower = np.minimum(pos.astype(np.int64), in_size - 1)
+    upper = np.minimum(lower + 1, in_size - 1)
+    d_lower = np.abs(pos - lower.astype(np.float32)).astype(np.float32)  # weight of the upper tap
+    d_upper = np.abs(pos - upper.astype(np.float32)).astype(np.float32)  # weight of the lower tap
+    same = lower == upper
+    d_lower[same] = d_upper[same] = np.float32(0.5)
+    return lower, upper, d_lower, d_upper
+
+
+def _resize_onnxruntime(x: np.ndarray, out_hw: tuple[int, int], q: QParams) -> np.ndarray:
+    """DequantizeLinear, float32 ``Resize`` (linear, half_pixel; ``dx2*dy2*X11 + dx1*dy2*X21 +
+    dx2*dy1*X12 + dx1*dy1*X22`` left to right, each weight product rounded), QuantizeLinear."""
+    y1, y2, dy1, dy2 = _onnxruntime_source(out_hw[0], x.shape[1])
+    x1, x2, dx1, dx2 = _onnxruntime_source(out_hw[1], x.shape[2])
+    v = quant.dequantize(x, q[0], q[1])
+    dx1, dx2 = dx1[None, None, :, None], dx2[None, None, :, None]
+    dy1, dy2 = dy1[None, :, None, None], dy2[None, :, None, None]
+
+    def term(wx, wy, rows, cols):
+        return ((wx * wy).astype(np.float32) * v[:, rows][:, :, cols]).astype(np.float32)
+
+    total = (term(dx2, dy2, y1, x1) + term(dx1, dy2, y1, x2)).astype(np.float32)
+    total = (total + term(dx2, dy1, y2, x1)).astype(np.float32)
+    total = (total + term(dx1, dy1, y2, x2)).astype(np.float32)
+    return quant.quantize(total, q[0], q[1], "int8", "onnxruntime")
+
+
+def resize_bilinear(x: np.ndarray, out_hw: tuple[int, int], half_pixel_centers: bool, formula: str,
+                    q: QParams | None = None) -> np.ndarray:
+    """int8 RESIZE_BILINEAR (align_corners False), (N, H, W, C) -> (N, Ho, Wo, C); params unchanged.
+
+    ``tflite``: LiteRT ``ResizeBilinearInteger``.  ``xnnpack_q11``: XNNPACK's Q11 lerp.
+    ``onnxruntime`` (needs ``q``, the tensors' ``(scale, zero_point)``, and half-pixel
+    centres): float32 resize between dequantize and quantize (:func:`_resize_onnxruntime`).
+    """
+    check_formula("RESIZE_BILINEAR", formula)
+    if formula == "xnnpack_q11":
+        return _resize_xnnpack(x, out_hw, half_pixel_centers)
+    if formula == "tflite":
+        return _resize_tflite(x, out_hw, half_pixel_centers)
+    if q is None or not half_pixel_centers:
+        raise ValueError("the onnxruntime RESIZE_BILINEAR formula needs the quantization params and half-pixel centres")
+    return _resize_onnxruntime(x, out_hw, q)
 
 
 # ---------------------------------------------------------------------------
 # QUANTIZE float32 -> int8, DEQUANTIZE int8 -> float32
 
-QUANTIZE_VECTOR_WIDTH = 8  # values per NEON iteration of LiteRT's optimized QUANTIZE / DEQUANTIZE
 
-
-def quantize(x: np.ndarray, out_q: tuple[float, int], formula: str) -> np.ndarray:
+def quantize(x: np.ndarray, out_q: QParams, formula: str) -> np.ndarray:
     """QUANTIZE float32 -> int8.
 
-    ``tflite_reference`` / ``xnnpack``: ``quant.quantize`` with that profile.
-    ``tflite_neon8``: LiteRT optimized kernel; full blocks of 8 (flattened)
-    multiply by the float32 reciprocal of the scale and round half to even,
-    the tail divides in float64 and rounds half away from zero.
+    A profile name: ``quant.quantize`` under that profile.  ``tflite_neon8``: LiteRT's optimized
+    kernel; full blocks of 8 (flattened) take the vector formula (``quant.quantize`` under
+    ``tflite_optimized``: multiply by the float32 reciprocal, ties to even), the tail divides in
+    float64 and rounds half away from zero.
     """
-    if formula in ("tflite_reference", "xnnpack"):
-        return quant.quantize(x, out_q[0], out_q[1], "int8", formula)
-    if formula != "tflite_neon8":
-        raise ValueError(f"unknown QUANTIZE formula {formula!r}")
-    flat = np.asarray(x, dtype=np.float32).reshape(-1)
-    scale = np.float32(out_q[0])
-    body = flat.size // QUANTIZE_VECTOR_WIDTH * QUANTIZE_VECTOR_WIDTH
-    q = np.empty(flat.size, dtype=np.float64)
-    q[:body] = np.rint((flat[:body] * (np.float32(1.0) / scale)).astype(np.float32))
-    q[body:] = quant.round_float(flat[body:].astype(np.float64) / np.float64(scale), "away_from_zero")
-    return _clamp_int8(q.reshape(np.shape(x)) + out_q[1], None)
+    check_formula("QUANTIZE", formula)
+    scale, zp = out_q
+    if formula in PROFILE_FORMULAS:
+        return quant.quantize(x, scale, zp, "int8", formula)
+
+    def body(v):
+        return quant.quantize(v, scale, zp, "int8", "tflite_optimized")
+
+    def tail(v):
+        q = quant.round_float(v.astype(np.float64) / np.float64(np.float32(scale)), "away_from_zero") + zp
+        return _clamp_int8(q, None)
+
+    return _by_position(vector_width("QUANTIZE", formula), body, tail, np.asarray(x, dtype=np.float32))
 
 
-def dequantize(x: np.ndarray, x_q: tuple[float, int], formula: str) -> np.ndarray:
+def dequantize(x: np.ndarray, x_q: QParams, formula: str) -> np.ndarray:
     """DEQUANTIZE int8 -> float32.
 
-    ``exact``: ``quant.dequantize``, one rounding of ``scale * (q - zp)``.
-    ``tflite_neon8``: LiteRT optimized kernel; full blocks of 8 compute
-    ``float32(q) * scale - float32(zp * scale)`` (two roundings), the tail is exact.
+    ``exact``: ``quant.dequantize``, one rounding of ``scale * (q - zp)``.  ``tflite_neon8``:
+    LiteRT's optimized kernel; full blocks of 8 compute ``float32(q) * scale - float32(zp * scale)``
+    (two roundings), the tail is exact.
     """
-    if formula == "exact":
-        return quant.dequantize(x, x_q[0], x_q[1])
-    if formula != "tflite_neon8":
-        raise ValueError(f"unknown DEQUANTIZE formula {formula!r}")
-    flat = np.asarray(x).reshape(-1)
+    check_formula("DEQUANTIZE", formula)
     scale = np.float32(x_q[0])
-    body = flat.size // QUANTIZE_VECTOR_WIDTH * QUANTIZE_VECTOR_WIDTH
-    out = np.empty(flat.size, dtype=np.float32)
     offset = np.float32(np.float32(x_q[1]) * scale)
-    out[:body] = (flat[:body].astype(np.float32) * scale).astype(np.float32) - offset
-    out[body:] = quant.dequantize(flat[body:], x_q[0], x_q[1])
-    return out.reshape(np.shape(x))
+
+    def exact(v):
+        return quant.dequantize(v, x_q[0], x_q[1])
+
+    def body(v):
+        return (v.astype(np.float32) * scale).astype(np.float32) - offset
+
+    if formula == "exact":
+        return exact(x)
+    return _by_position(vector_width("DEQUANTIZE", formula), body, exact, np.asarray(x))
 
 
 # ---------------------------------------------------------------------------
@@ -294,39 +364,35 @@ def dequantize(x: np.ndarray, x_q: tuple[float, int], formula: str) -> np.ndarra
 
 
 XNNPACK_CONVERT_RANGE = (2.0**-8, 2.0**7)  # s_in / s_out ratios XNNPACK accepts for an int8 -> int8 QUANTIZE
-REQUANTIZE_VECTOR_WIDTH = 16  # values per NEON iteration of LiteRT's optimized int8 -> int8 QUANTIZE
 
 
-def requantize_int8(x: np.ndarray, x_q: tuple[float, int], out_q: tuple[float, int], formula: str) -> np.ndarray:
+def requantize_int8(x: np.ndarray, x_q: QParams, out_q: QParams, formula: str) -> np.ndarray:
     """QUANTIZE int8 -> int8 (new scale and zero point).
 
-    ``tflite_reference`` / ``tflite_half_up``: ``MultiplyByQuantizedMultiplier(x - z_in, Q31(s_in / s_out)) + z_out``,
-    the multiplier from float64 of the float32 scales, the final shift
-    rounding ties away from zero or up.  ``tflite_neon16`` (LiteRT optimized):
-    full blocks of 16 (flattened) ``tflite_half_up``, the tail ``tflite_reference``.
-    ``xnnpack_q8``: XNNPACK ``convert``: ``m = rint(256 * float32(s_in / s_out))``,
-    ``((x - z_in) * m + 128) >> 8``, plus ``z_out``.  Outside
-    ``XNNPACK_CONVERT_RANGE`` XNNPACK declines the op and LiteRT's optimized
-    kernel runs it (``tflite_neon16``).
+    ``tflite_reference`` / ``tflite_optimized``: ``quant.requantize`` of ``x - z_in`` under that
+    profile with a unit weight scale (Q31 multiplier of ``s_in / s_out`` from float64 of the
+    float32 scales; the final shift rounds ties away from zero or up).  ``tflite_neon16``
+    (LiteRT optimized): full blocks of 16 (flattened) ``tflite_optimized``, the tail
+    ``tflite_reference``.  ``xnnpack_q8``: XNNPACK ``convert``: ``m = rint(256 * float32(s_in /
+    s_out))``, ``((x - z_in) * m + 128) >> 8``, plus ``z_out``; outside ``XNNPACK_CONVERT_RANGE``
+    XNNPACK declines the op and LiteRT's optimized kernel runs it (``tflite_neon16``).
+    ``onnxruntime`` (a DequantizeLinear -> QuantizeLinear pair): ``quant.quantize`` under
+    ``onnxruntime`` of ``quant.dequantize``.
     """
-    if formula == "tflite_neon16":
-        flat = np.asarray(x).reshape(-1)
-        body = flat.size // REQUANTIZE_VECTOR_WIDTH * REQUANTIZE_VECTOR_WIDTH
-        out8 = np.concatenate([requantize_int8(flat[:body], x_q, out_q, "tflite_half_up"),
-                               requantize_int8(flat[body:], x_q, out_q, "tflite_reference")])
-        return out8.reshape(np.shape(x))
+    check_formula("REQUANTIZE", formula)
     (si, zi), (so, zo) = x_q, out_q
-    d = np.asarray(x, dtype=np.int64) - zi
     ratio = np.float32(np.float32(si) / np.float32(so))
     if formula == "xnnpack_q8" and not XNNPACK_CONVERT_RANGE[0] <= ratio <= XNNPACK_CONVERT_RANGE[1]:
-        return requantize_int8(x, x_q, out_q, "tflite_neon16")
-    if formula in ("tflite_reference", "tflite_half_up"):
-        m, shift = quant.quantize_multiplier(float(np.float32(si)) / float(np.float32(so)))
-        rounding = "away_from_zero" if formula == "tflite_reference" else "half_up"
-        out = quant.multiply_by_quantized_multiplier(d, m, shift, rounding)
-    elif formula == "xnnpack_q8":
+        formula = "tflite_neon16"
+    if formula == "tflite_neon16":
+        def under(name):
+            return lambda v: requantize_int8(v, x_q, out_q, name)
+
+        return _by_position(vector_width("REQUANTIZE", formula), under("tflite_optimized"), under("tflite_reference"), x)
+    if formula == "onnxruntime":
+        return quant.quantize(quant.dequantize(x, si, zi), so, zo, "int8", "onnxruntime")
+    d = np.asarray(x, dtype=np.int64) - zi
+    if formula == "xnnpack_q8":
         m = int(np.rint(np.float32(256.0) * ratio))
-        out = (d * m + 128) >> 8
-    else:
-        raise ValueError(f"unknown int8 requantize formula {formula!r}")
-    return _clamp_int8(out + zo, None)
+        return _clamp_int8(((d * m + 128) >> 8) + zo, None)
+    return quant.requantize(d, si, np.float32(1.0), so, zo, formula)

@@ -18,7 +18,6 @@ import pytest
 from mnss_kit.dataset.format import read_meta
 from mnss_kit.emulate.frame_loop import Emulator
 from mnss_kit.emulate.npu import NPU_PROFILES
-from mnss_kit.emulate.profiles import KERNEL_SETS
 from mnss_kit.emulate.sequence import sequence_frames
 from mnss_kit.errors import UserError
 from mnss_kit.export.manifest import file_table
@@ -141,12 +140,14 @@ def test_onnxruntime_backend_runs_the_bundle(root, frames):
     assert int(np.max(np.abs(a.npu_output.astype(np.int16) - b.npu_output))) <= 1
 
 
-@pytest.mark.skipif("onnxruntime" not in KERNEL_SETS, reason="emulate.profiles has no onnxruntime kernel set yet")
 def test_numpy_equals_onnxruntime_over_recurrent_frames(root, frames):
     emulated = Emulator(root / "bundle", "ort-cpu", "numpy")
     runtime = Emulator(root / "bundle", "ort-cpu", "onnxruntime")
     for t, frame in enumerate(frames):
-        assert np.array_equal(emulated.run_frame(frame).npu_output, runtime.run_frame(frame).npu_output), f"frame {t}"
+        a, b = emulated.run_frame(frame), runtime.run_frame(frame)
+        assert np.array_equal(a.npu_output, b.npu_output), f"frame {t}"
+        assert np.array_equal(a.display, b.display), f"frame {t} display"
+    assert len(frames) >= 10
 
 
 def need_egl():

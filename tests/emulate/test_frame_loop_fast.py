@@ -84,6 +84,21 @@ def test_fast_conv2d_equals_kernel(kernel_set, seed):
     np.testing.assert_array_equal(fast.conv2d(x, x_q, weights, bias, requantizer, stride, padding), expected)
 
 
+@pytest.mark.parametrize("kernel_set", ["tflite_reference", "xnnpack"])
+@given(seed=SEEDS)
+def test_fast_conv2d_in_blocks_of_rows_equals_kernel(kernel_set, seed):
+    """Blocks of one to a few output rows (with a shorter last block), strides 1 and 2, SAME and VALID."""
+    x, x_q, weights, w_scales, bias, out_q, stride, padding, activation = random_conv_case(seed, depthwise=False)
+    if padding == "VALID" and (x.shape[1] < weights.shape[1] or x.shape[2] < weights.shape[2]):
+        padding = "SAME"
+    expected = kernels.conv2d(x, x_q, weights, w_scales, bias, out_q, stride, padding, activation, kernel_set)
+    requantizer = fast.Requantizer(x_q, w_scales, out_q, activation, KERNEL_SETS[kernel_set].numerics)
+    block = int(np.prod(expected.shape[2:])) * (1 + seed % 3)  # output rows per block: 1, 2 or 3
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(fast, "_BLOCK_VALUES", block)
+        np.testing.assert_array_equal(fast.conv2d(x, x_q, weights, bias, requantizer, stride, padding), expected)
+
+
 @pytest.mark.parametrize("kernel_set", list(KERNEL_SETS))
 @given(seed=SEEDS)
 def test_fast_depthwise_equals_kernel(kernel_set, seed):
@@ -144,3 +159,47 @@ def test_fast_gpu_conv3x3_equals_reference(epilogue):
         np.testing.assert_array_equal(FastReferencePasses().conv3x3(x, conv, epilogue, residual), expected)
     with pytest.raises(ValueError, match="epilogue"):
         FastReferencePasses().conv3x3(x, conv, "gelu")
+
+
+@pytest.mark.parametrize("rows", [1, 2, 5])
+def test_fast_gpu_conv3x3_in_blocks_of_rows_equals_reference(monkeypatch, rows):
+    from mnss_kit.emulate import fast_gpu
+    from mnss_kit.ops.inpaint import conv3x3
+
+    rng = np.random.default_rng(rows)
+    x = rng.normal(size=(11, 9, 5)).astype(np.float32)
+    weight, bias = rng.normal(size=(4, 5, 3, 3)).astype(np.float32), rng.normal(size=4).astype(np.float32)
+    monkeypatch.setattr(fast_gpu, "_BLOCK_VALUES", rows * 4 * 9)
+    assert np.array_equal(fast_gpu.conv3x3_planar(x, weight, bias), conv3x3(x, weight, bias))
+
+
+def test_fast_gpu_passes_equal_reference_on_a_frame_sequence():
+    """The whole GPU stage (inpainting weights included) through the fast passes, frame after frame."""
+    from mnss_kit.emulate.fast_gpu import FastReferencePasses
+    from mnss_kit.gpu import schedule
+    from mnss_kit.gpu.reference import ReferencePasses
+    from mnss_kit.gpu.weights import Conv3x3, GpuWeights
+
+    rng = np.random.default_rng(5)
+    h, w, s = 10, 14, 2
+
+    def conv(cout, cin):
+        weight = rng.normal(size=(cout, cin, 3, 3)).astype(np.float32) * 0.3
+        return Conv3x3(weight, rng.normal(size=cout).astype(np.float32) * 0.1)
+
+    weights = GpuWeights(inpaint=conv(1, 4), aa=(conv(8, 6), conv(3, 8)))
+    stage = schedule.GpuStage(s, True, "sigmoid", "bilinear", None, weights)
+    boundary = schedule.NpuBoundary(1 / 255, -128, 1 / 255, -128)
+    states = {"fast": None, "reference": None}
+    for t in range(3):
+        frame = {"color": rng.random((h, w, 3), dtype=np.float32), "depth": rng.random((h, w, 1), dtype=np.float32),
+                 "motion": rng.normal(size=(h, w, 2)).astype(np.float32), "jitter": np.float32([0.25, -0.25]) * (-1) ** t,
+                 "reset": False}
+        out = {}
+        for name, passes in (("fast", FastReferencePasses()), ("reference", ReferencePasses())):
+            out[name] = schedule.before_npu(passes, stage, frame, states[name], boundary)
+            history = np.clip(out[name]["rectified"] + 0.01, 0, 1)
+            states[name] = schedule.next_state(frame, history)
+        for key in ("npu_input", "lr_weight", "rectified", "aa"):
+            if out["reference"][key] is not None:
+                np.testing.assert_array_equal(out["fast"][key], out["reference"][key], err_msg=f"frame {t} {key}")

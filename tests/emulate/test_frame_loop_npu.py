@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mnss_kit.emulate.npu import NPU_PROFILES, open_npu
+from mnss_kit.emulate.npu import NPU_PROFILES, NpuProfile, NumpyNpu, open_npu
 from mnss_kit.emulate.npu_graph import read_npu_graph
 from mnss_kit.emulate.profiles import KERNEL_SETS
 from mnss_kit.errors import UserError
@@ -157,7 +157,6 @@ def test_onnxruntime_backend_runs_close_to_the_tflite_reference(files, first_inp
     assert np.mean(diff > 0) < 0.1 and diff.max() <= 16
 
 
-@pytest.mark.skipif("onnxruntime" not in KERNEL_SETS, reason="emulate.profiles has no onnxruntime kernel set yet")
 def test_numpy_equals_onnxruntime(files, first_input):
     tflite, onnx = files
     expected = run_recurrent(open_npu(tflite, "ort-cpu", "onnxruntime", onnx=onnx), first_input, keep_all=False)
@@ -166,11 +165,11 @@ def test_numpy_equals_onnxruntime(files, first_input):
         assert np.array_equal(npu.run({"x": frame["x"]})["y"], frame["y"]), f"frame {t}"
 
 
-def test_ort_profile_without_kernel_set_is_a_user_error(files):
-    if "onnxruntime" in KERNEL_SETS:
-        pytest.skip("the onnxruntime kernel set exists")
-    with pytest.raises(UserError, match="onnxruntime"):
-        open_npu(files[0], "ort-cpu", "numpy")
+def test_profile_without_kernel_set_is_a_user_error(files):
+    profile = NpuProfile("vendor", "vendor_kernels", "onnxruntime", None, "kernels the numpy backend does not reproduce")
+    assert profile.kernel_set not in KERNEL_SETS
+    with pytest.raises(UserError, match="no kernel set for profile 'vendor'"):
+        NumpyNpu(read_npu_graph(files[0]), profile)
 
 
 def test_profile_and_backend_mismatch_are_user_errors(files):
