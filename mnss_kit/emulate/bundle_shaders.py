@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import UserError
 from .bundle import BundleSpec
 
 
@@ -22,19 +21,4 @@ def bundle_mesa_passes(spec: BundleSpec):
     if spec.manifest is None:
         return MesaPasses()
     root = Path(spec.source)
-    sources = {p["name"]: p["file"] for p in spec.manifest["gpu"]["passes"]}
-
-    class BundlePasses(MesaPasses):
-        def program(self, name: str):
-            if name not in self._programs:
-                if name not in sources:
-                    raise UserError(f"{root / 'manifest.json'}: gpu.passes has no {name}")
-                text = (root / sources[name]).read_text(encoding="utf-8", errors="replace")
-                try:
-                    self._programs[name] = self.compile(text)
-                except Exception as e:  # moderngl raises plain Exceptions with the driver's compile log
-                    first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-                    raise UserError(f"{root / sources[name]}: does not compile on this GL driver ({first})") from None
-            return self._programs[name]
-
-    return BundlePasses()
+    return MesaPasses(sources={p["name"]: root / p["file"] for p in spec.manifest["gpu"]["passes"]})

@@ -138,6 +138,8 @@ class OnnxNpu:
         options.inter_op_num_threads = 1
         options.log_severity_level = 3
         options.graph_optimization_level = getattr(ort.GraphOptimizationLevel, ORT_GRAPH_OPTIMIZATION)
+        # Without this, ORT on x86 runs int8 QDQ convolutions as float Conv (ARM builds fuse them).
+        options.add_session_config_entry("session.qdqisint8allowed", "1")
         try:
             self.session = ort.InferenceSession(model, options, providers=["CPUExecutionProvider"])
         except Exception as e:  # onnxruntime raises its own exception types for bad models

@@ -531,7 +531,7 @@ def add(
         ``2^(shift-1) - m_a z_a - m_b z_b + m_a a + m_b b`` is shifted right
         arithmetically by ``shift`` (ties toward +infinity).
     ``float32_fma`` (ONNX Runtime MLAS)
-        ``r_x = s_x / s_o`` and ``bias = z_o - r_a z_a - r_b z_b`` in float32;
+        ``r_x = s_x / s_o`` and ``bias = z_o - fma(r_a, z_a, r_b z_b)`` in float32;
         ``rint(fma(a, r_a, fma(b, r_b, bias)))`` (round half to even), with
         ``a``, ``b`` the raw integers.
     """
@@ -563,7 +563,7 @@ def add(
         out = ((bias + a * ma + b * mb) >> shift) + zo
     elif p.add == "float32_fma":
         ra, rb = np.float32(sa / so), np.float32(sb / so)
-        bias = np.float32(np.float32(np.float32(zo) - np.float32(ra * np.float32(za))) - np.float32(rb * np.float32(zb)))
+        bias = np.float32(np.float32(zo) - fma_f32(ra, np.float32(za), np.float32(rb * np.float32(zb))))
         inner = fma_f32(b.astype(np.float32), rb, bias)
         out = round_float(fma_f32(a.astype(np.float32), ra, inner), p.float_rounding)
     else:

@@ -181,8 +181,6 @@ def binary_case(rng: np.random.Generator, kind: str) -> Case:
     return Case(graph, int8(rng, shape), int8(rng, shape))
 
 
-@pytest.mark.xfail(reason="ops.quant.add 'float32_fma' rounds the constant term as (z_o - r_a z_a) - r_b z_b; "
-                          "MLAS computes z_o - fma(r_a, z_a, r_b z_b)", strict=False)
 @given(seed=SEEDS)
 def test_add(seed):
     case = binary_case(np.random.default_rng(seed), "ADD")
