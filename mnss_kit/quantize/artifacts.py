@@ -62,13 +62,13 @@ def encodings(graph: Graph) -> dict:
     }
 
 
-def _fmt(v, digits: int = 2) -> str:
+def _fmt(v, digits: int = 2, signed: bool = False) -> str:
     if v is None:
         return "-"
     if isinstance(v, float):
         if math.isinf(v):
             return "inf"
-        return f"{v:.{digits}f}"
+        return f"{v:+.{digits}f}" if signed else f"{v:.{digits}f}"
     return str(v)
 
 
@@ -81,6 +81,33 @@ def summary_table(report: dict) -> str:
     lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]
     lines.insert(1, "  ".join("-" * w for w in widths))
     return "\n".join(lines)
+
+
+QUALITY_COLUMNS = (("psnr", "PSNR dB", 3), ("ssim", "SSIM", 5), ("if_ssim", "IF-SSIM", 5))
+
+
+def comparison_table(report: dict) -> str:
+    """Plain-text fp32 / int8 / delta table, overall and per sequence (``report`` as from ``fp32_vs_int8``)."""
+    rows = [("sequence", "frames", "") + tuple(c[1] for c in QUALITY_COLUMNS)]
+    parts = [(p["sequence"], str(p["frames"]), p) for p in report.get("sequences", [])]
+    parts.append(("all", str(report.get("evaluation", {}).get("frames", "")), report))
+    for label, frames, scores in parts:
+        for i, kind in enumerate(("fp32", "int8", "delta")):
+            cells = tuple(_fmt(scores[kind][key], digits, signed=kind == "delta") for key, _, digits in QUALITY_COLUMNS)
+            rows.append((label if i == 0 else "", frames if i == 0 else "", kind) + cells)
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def evaluation_sentence(info: dict) -> str:
+    """One sentence on what the fp32-vs-int8 numbers were measured on and with."""
+    frames = "all frames" if info["max_frames_per_sequence"] is None else f"at most {info['max_frames_per_sequence']} frames"
+    where = "held-out data" if info["held_out"] else "the calibration data (not held out: pass --eval-data for a held-out set)"
+    return (f"{info['evaluator']}; {info['sequences']} sequences of {info['data']} ({where}), {frames} per sequence, "
+            f"{info['frames']} frames in all.  GPU part: {info['gpu_part']}.  int8 NPU stage: npu.tflite in {info['int8_runtime']} "
+            f"(numerics profile {info['int8_numerics_profile']}).  delta = int8 - fp32.")
 
 
 def report_markdown(report: dict) -> str:
@@ -99,12 +126,9 @@ def report_markdown(report: dict) -> str:
     out += ["", f"LiteRT reference vs ONNX Runtime QDQ, same scales and zero points by construction: each op alone on the same "
             f"inputs differs by at most {agree['per_op_max_lsb']} LSB; whole-graph runs by at most {agree['end_to_end_max_lsb']} LSB "
             f"on int8 tensors ({agree['end_to_end_fraction_differing']:.3%} of values differ).", ""]
-    if report.get("pipeline"):
-        out += ["## Recurrent pipeline (history from the model's own output)", "",
-                "| sequence | frames | int8 runtime | float PSNR vs reference (dB) | int8 PSNR vs reference (dB) |", "|---|---|---|---|---|"]
-        for p in report["pipeline"]:
-            out.append(f"| {p['sequence']} | {p['frames']} | {p['runtime']} | {_fmt(p['float_psnr_db'])} | {_fmt(p['int8_psnr_db'])} |")
-        out.append("")
+    if report.get("delta"):
+        out += ["## fp32 vs int8, recurrent pipeline", "", evaluation_sentence(report["evaluation"]), "",
+                "```", comparison_table(report), "```", ""]
     out += ["## Tensors", "", "SQNR: each tensor of the final graph against the float model. Only-this PSNR: output PSNR with only that "
             "tensor quantized, measured on the all-int8 graph (what chooses the 16-bit tensors).", "", "```", summary_table(report), "```", ""]
     out += ["## Files", "", "| file | bytes |", "|---|---|"]

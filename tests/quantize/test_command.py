@@ -13,6 +13,7 @@ from mnss_kit.dataset.synthetic import write_synthetic_sequence
 from mnss_kit.model import checkpoint
 from mnss_kit.model.config import ModelConfig
 from mnss_kit.model.families import build_model
+from mnss_kit.quantize.command import sample_frames
 
 TINY = dict(scale=2, recon_width=8, recon_layers=3, aa_width=4, aa_layers=1)
 
@@ -43,14 +44,48 @@ def test_end_to_end(tiny_checkpoint, synthetic_dataset, tmp_path, capsys):
     report = json.loads((out / "report.json").read_text())
     assert report["samples"] == 6 and report["method"] == "mse" and len(report["int16"]) == 1
     assert report["agreement"]["per_op_max_lsb"] <= 1
-    assert {p["sequence"] for p in report["pipeline"]} == {"pan", "pan_cut"}
-    for p in report["pipeline"]:
-        assert abs(p["float_psnr_db"] - p["int8_psnr_db"]) < 3.0
+    for kind in ("fp32", "int8", "delta"):
+        assert set(report[kind]) == {"psnr", "ssim", "if_ssim"}
+    for key in ("psnr", "ssim", "if_ssim"):
+        assert report["delta"][key] == pytest.approx(report["int8"][key] - report["fp32"][key])
+    assert report["int8"]["psnr"] != report["fp32"]["psnr"]  # the int8 stage really ran
+    assert abs(report["delta"]["psnr"]) < 3.0
+    info = report["evaluation"]
+    assert info["held_out"] is False and info["data"] == str(synthetic_dataset)
+    assert info["int8_runtime"] == "litert_reference" and info["frames"] == 6 and info["max_frames_per_sequence"] == 3
+    assert {s["sequence"] for s in report["sequences"]} == {"pan", "pan_cut"}
     enc = json.loads((out / "encodings.json").read_text())
     assert enc["layout"] == "NHWC" and report["int16"][0] in enc["activation_encodings"]
     assert enc["activation_encodings"][report["int16"][0]]["bitwidth"] == 16
-    assert "output PSNR" in stdout and "SQNR dB" in stdout
-    assert "# int8 NPU stage" in (out / "report.md").read_text()
+    assert "output PSNR" in stdout and "SQNR dB" in stdout and "delta" in stdout
+    text = (out / "report.md").read_text()
+    assert "# int8 NPU stage" in text and "not held out" in text
+
+
+def test_report_uses_the_eval_loop(tiny_checkpoint, synthetic_dataset, tmp_path, capsys):
+    """fp32 in report.json is what ``mnss-kit eval`` computes for the model on the same frames."""
+    data = tmp_path / "held_out"
+    shutil.copytree(synthetic_dataset / "pan", data / "pan")
+    out = tmp_path / "int8"
+    code, _, stderr = quantize([tiny_checkpoint, "--data", synthetic_dataset, "--eval-data", data, "--out", out,
+                                "--frames", 2, "--pipeline-frames", 4, "--eval-runtime", "xnnpack"], capsys)
+    assert code == 0, stderr
+    report = json.loads((out / "report.json").read_text())
+    summary = tmp_path / "eval.json"
+    assert cli.main(["eval", str(tiny_checkpoint), "--data", str(data), "--methods", "model", "--max-frames", "4",
+                     "--json", str(summary), "--no-progress"]) == 0
+    expected = json.loads(summary.read_text())["methods"]["model"]
+    for key in ("psnr", "ssim", "if_ssim"):
+        assert report["fp32"][key] == pytest.approx(expected[key], abs=1e-9)
+    assert report["evaluation"]["held_out"] is True and report["evaluation"]["int8_runtime"] == "litert_xnnpack"
+    assert [s["sequence"] for s in report["sequences"]] == ["pan"]
+
+
+def test_calibration_frames_are_spread_over_sequences():
+    assert sample_frames([8, 8], 4) == [[0, 7], [0, 7]]
+    assert sample_frames([8, 3], 7) == [[0, 2, 5, 7], [0, 1, 2]]  # a short sequence gives what it has
+    assert sample_frames([5], 9) == [[0, 1, 2, 3, 4]]
+    assert sum(map(len, sample_frames([64] * 6, 24))) == 24
 
 
 def error_of(args, capsys) -> str:
@@ -68,6 +103,7 @@ def test_not_a_checkpoint(tmp_path, capsys):
     other = tmp_path / "other.pt"
     torch.save({"weights": torch.zeros(3)}, other)
     assert "not an mnss-kit checkpoint" in error_of([other, "--out", tmp_path / "o"], capsys)
+    assert not (tmp_path / "o").exists()
 
 
 def test_truncated_checkpoint(tiny_checkpoint, tmp_path, capsys):
@@ -75,12 +111,41 @@ def test_truncated_checkpoint(tiny_checkpoint, tmp_path, capsys):
     data = tiny_checkpoint.read_bytes()
     cut.write_bytes(data[: len(data) // 2])
     assert "checkpoint" in error_of([cut, "--out", tmp_path / "o"], capsys)
+    assert not (tmp_path / "o").exists()
 
 
 def test_wrong_scale_data(tiny_checkpoint, tmp_path, capsys):
     write_synthetic_sequence(tmp_path / "x3" / "seq", name="seq", lr_size=(16, 12), scale=3, frames=2)
     msg = error_of([tiny_checkpoint, "--data", tmp_path / "x3", "--out", tmp_path / "o"], capsys)
     assert "x3" in msg and "x2" in msg
+    assert not (tmp_path / "o").exists()
+
+
+def test_wrong_scale_eval_data(tiny_checkpoint, synthetic_dataset, tmp_path, capsys):
+    write_synthetic_sequence(tmp_path / "x3" / "seq", name="seq", lr_size=(16, 12), scale=3, frames=2)
+    msg = error_of([tiny_checkpoint, "--data", synthetic_dataset, "--eval-data", tmp_path / "x3", "--out", tmp_path / "o"], capsys)
+    assert "evaluation" in msg and "x3" in msg and "x2" in msg
+    assert not (tmp_path / "o").exists()
+    msg = error_of([tiny_checkpoint, "--data", synthetic_dataset, "--eval-data", tmp_path / "missing", "--out", tmp_path / "o"], capsys)
+    assert "evaluation data directory not found" in msg
+    assert not (tmp_path / "o").exists()
+
+
+def test_nan_eval_frames(tiny_checkpoint, synthetic_dataset, tmp_path, capsys):
+    data = tmp_path / "data"
+    shutil.copytree(synthetic_dataset / "pan", data / "pan")
+    colour = fmt.read_raw_buffer(data / "pan", "lr", "color", 2)
+    colour[3, 4] = np.nan
+    fmt.write_buffer(data / "pan", "lr", "color", 2, colour)
+    msg = error_of([tiny_checkpoint, "--data", synthetic_dataset, "--eval-data", data, "--out", tmp_path / "o",
+                    "--frames", 2, "--pipeline-frames", 4, "--eval-runtime", "xnnpack"], capsys)
+    assert "NaN" in msg
+    assert not (tmp_path / "o").exists()
+
+
+def test_contradictory_counts(tiny_checkpoint, tmp_path, capsys):
+    assert ">= 0" in error_of([tiny_checkpoint, "--pipeline-frames", -1, "--out", tmp_path / "o"], capsys)
+    assert "--pipeline-frames 0" in error_of([tiny_checkpoint, "--eval-data", tmp_path, "--pipeline-frames", 0, "--out", tmp_path / "o"], capsys)
     assert not (tmp_path / "o").exists()
 
 
