@@ -9,6 +9,8 @@ numpy out.  Bindings come from ``passes.PASSES``; the shader of each pass is the
 
 from __future__ import annotations
 
+import functools
+
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +32,21 @@ TEXTURE_FORMATS = {
 }
 NUMPY_DTYPES = {"f2": np.float16, "f4": np.float32, "f1": np.uint8}
 MAX_GROUPS_X = 4096  # workgroups along x for the 1D word grid; the rest go along y
+
+
+def _in_own_context(method):
+    """Run a pass with this object's GL context current.
+
+    Another context (the renderer's, another ``MesaPasses``) may have been made current, or
+    released, since this one was created; GL calls would then reach the wrong context.
+    """
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        self.ctx.__enter__()  # make current, and leave it current as a new context is
+        return method(self, *args, **kwargs)
+
+    return wrapper
 
 
 def create_context():
@@ -176,6 +193,7 @@ class MesaPasses:
         return self.texture(np.zeros((1, 1, 1), np.float32), "r32f")
 
     # -- passes (signatures of reference.ReferencePasses) ---------------------------------------
+    @_in_own_context
     def warp(self, history, prev_depth, motion, prev_jitter, jitter, scale: int):
         hh, hw = history.shape[:2]
         h, w = motion.shape[:2]
@@ -192,6 +210,7 @@ class MesaPasses:
         self.run("warp_pass", (hw, hh), res, uni)
         return self.read(warped, "rgba16f", 3), self.read(warped_depth, "r32f", 1)
 
+    @_in_own_context
     def inpaint_weights(self, color, depth, warped, warped_depth, jitter, scale: int, conv: Conv3x3, activation: str):
         h, w = color.shape[:2]
         out = self.empty((w, h), "r32f")
@@ -207,6 +226,7 @@ class MesaPasses:
         self.run("inpaint_weights_pass", (w, h), res, uni)
         return self.read(out, "r32f", 1)
 
+    @_in_own_context
     def inpaint_blend(self, color, warped, lr_weight, jitter, scale: int, weight_upsample: str, reset: bool):
         h, w = color.shape[:2]
         out = self.empty((w * scale, h * scale), "rgba16f")
@@ -221,6 +241,7 @@ class MesaPasses:
         self.run("inpaint_blend_pass", (w * scale, h * scale), res, uni)
         return self.read(out, "rgba16f", 3)
 
+    @_in_own_context
     def avgpool(self, rectified, color, scale: int):
         h, w = color.shape[:2]
         out = self.empty((w, h), "rgba16f", layers=2)
@@ -228,6 +249,7 @@ class MesaPasses:
         self.run("avgpool_pass", (w, h), res, {"u_scale": scale})
         return self.read(out, "rgba16f", 6)
 
+    @_in_own_context
     def conv3x3(self, x, conv: Conv3x3, epilogue: str, residual=None):
         h, w, cin = x.shape
         if cin != conv.in_channels:
@@ -244,6 +266,7 @@ class MesaPasses:
         self.run("conv3x3_pass", (w, h, out_layers), res, uni)
         return self.read(out, "rgba16f", conv.out_channels)
 
+    @_in_own_context
     def insert_pack(self, rectified, aa, jitter, scale: int, q_scale: float, q_zero_point: int, profile: str):
         hh, hw = rectified.shape[:2]
         nbytes = hh * hw * 3
@@ -255,6 +278,7 @@ class MesaPasses:
         self.run("insert_pack_pass", (words,), res, uni)
         return np.frombuffer(out.read(), dtype=np.int8)[:nbytes].reshape(1, hh, hw, 3).copy()
 
+    @_in_own_context
     def unpack_history(self, npu_output, q_scale: float, q_zero_point: int):
         _, hh, hw, _ = npu_output.shape
         raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
@@ -265,6 +289,7 @@ class MesaPasses:
         self.run("unpack_history_pass", (hw, hh), res, uni)
         return self.read(history, "rgba16f", 3), self.read(display, "rgba8", 3)
 
+    @_in_own_context
     def sharpen(self, image, beta: float):
         hh, hw = image.shape[:2]
         display = self.empty((hw, hh), "rgba8")
