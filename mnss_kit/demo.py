@@ -108,9 +108,11 @@ def write_report(out: Path, timings: dict[str, float]) -> Path:
     quant = out / "int8" / "report.json"
     if quant.exists():
         q = json.loads(quant.read_text())
-        for p in q.get("pipeline", []):
-            lines.append("")
-            lines.append(f"int8 NPU stage, {p['sequence']}: float {p['float_psnr_db']:.2f} dB, int8 {p['int8_psnr_db']:.2f} dB")
+        if "fp32" in q and "int8" in q:
+            lines += ["", "| NPU stage | PSNR (dB) | SSIM | IF-SSIM |", "|---|---|---|---|"]
+            for name in ("fp32", "int8"):
+                m = q[name]
+                lines.append(f"| {name} | {m['psnr']:.2f} | {m['ssim']:.4f} | {m['if_ssim']:.4f} |")
     chart = quality_cost_chart(ev, out / "quality_vs_cost.png")
     lines += ["", f"![quality vs cost]({chart.name})", "", "Step timings (s): " +
               ", ".join(f"{k} {v:.0f}" for k, v in timings.items()), ""]
