@@ -344,6 +344,9 @@ def study_section(study: dict, doc: Path) -> list[str]:
     skipped = {n: r for s in study["settings"] for n, r in (s.get("int16_skipped") or {}).items()}
     if skipped:
         out += ["", "More sensitive tensors passed over for 16 bits: " + "; ".join(f"`{n}`: {r}" for n, r in skipped.items()) + "."]
+    a16_effect = a16_change(study["settings"])
+    if a16_effect is not None:
+        out += ["", f"A16 changes delta PSNR by at most {a16_effect:.4f} dB against the same range method without it."]
     out += [
         "",
         f"fp32 IF-SSIM {study['settings'][0]['fp32']['if_ssim']:.5f}.  Stage PSNR vs float: the int8 stage's output against the float "
@@ -397,6 +400,13 @@ def agreement_section(agreement: dict) -> list[str]:
         out.append(f"| {t['tensor']} | {t['op']} | {t['whole_graph_max_lsb']} | {t['fraction_differing']:.4%} | {t['alone_max_lsb']} | "
                    f"{window} | {shifts} | {gain} |")
     return out + [""]
+
+
+def a16_change(settings: list[dict]) -> float | None:
+    """Largest |delta PSNR with A16 - delta PSNR without| over the range methods measured both ways."""
+    base = {s["method"]: s["delta"]["psnr"] for s in settings if s["a16"] == 0}
+    changes = [abs(s["delta"]["psnr"] - base[s["method"]]) for s in settings if s["a16"] > 0 and s["method"] in base]
+    return max(changes) if changes else None
 
 
 def _signed(v, digits: int) -> str:
