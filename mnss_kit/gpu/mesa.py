@@ -44,6 +44,7 @@ def _in_own_context(method):
     @functools.wraps(method)
     def wrapper(self, *args, **kwargs):
         self.ctx.__enter__()  # make current, and leave it current as a new context is
+        self.ctx.gc()
         return method(self, *args, **kwargs)
 
     return wrapper
@@ -83,7 +84,10 @@ class MesaPasses:
 
     def __init__(self, ctx=None, sources: dict[str, str | Path] | None = None):
         self.ctx = ctx if ctx is not None else create_context()
-        self.ctx.gc_mode = "auto"  # release per-call textures and buffers when they are dropped
+        # Dropped per-call textures and buffers are queued and released by the next pass, with this
+        # context current: releasing them from __del__ ("auto") would delete whatever objects
+        # share their names in the context that happens to be current then.
+        self.ctx.gc_mode = "context_gc"
         self.sources = sources
         self._programs: dict[str, object] = {}
 
