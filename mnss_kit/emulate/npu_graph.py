@@ -20,7 +20,6 @@ import numpy as np
 
 from ..errors import UserError
 
-TFLITE_IDENTIFIER = b"TFL3"
 
 # operator -> number of activation (non-constant) inputs it takes; constants follow them
 SUPPORTED_OPS = {
@@ -113,16 +112,9 @@ def read_npu_graph(path_or_bytes: str | Path | bytes, source: str | None = None)
 
 
 def _parse(data: bytes, source: str):
-    from ai_edge_litert import schema_py_generated as schema
+    from ..export.npu_files import parse_tflite
 
-    if len(data) < 8 or data[4:8] != TFLITE_IDENTIFIER:
-        raise UserError(f"{source}: not a TFLite flatbuffer (no 'TFL3' identifier)")
-    try:
-        model = schema.ModelT.InitFromPackedBuf(bytearray(data), 0)
-    except Exception as e:  # a truncated flatbuffer raises from deep inside the generated code
-        raise UserError(f"{source}: corrupt ({type(e).__name__} while reading the flatbuffer)") from None
-    if not model.subgraphs:
-        raise UserError(f"{source}: has no subgraph")
+    model = parse_tflite(data, source)
     if len(model.subgraphs) > 1:
         raise UserError(f"{source}: has {len(model.subgraphs)} subgraphs; the emulator runs single-subgraph models")
     return model

@@ -59,8 +59,8 @@ def _tflite_type_names() -> dict[int, str]:
     return {v: k.lower() for k, v in vars(schema.TensorType).items() if not k.startswith("_")}
 
 
-def read_tflite(data: bytes, source: str = "npu.tflite") -> NpuModel:
-    """Tensors, inputs and outputs of the first subgraph of a ``.tflite`` flatbuffer."""
+def parse_tflite(data: bytes, source: str = "npu.tflite"):
+    """The flatbuffer object tree (``schema_py_generated.ModelT``) of a ``.tflite`` file with a subgraph."""
     from ai_edge_litert import schema_py_generated as schema
 
     if len(data) < 8 or data[4:8] != TFLITE_IDENTIFIER:
@@ -71,6 +71,12 @@ def read_tflite(data: bytes, source: str = "npu.tflite") -> NpuModel:
         raise UserError(f"{source} is corrupt ({type(e).__name__} while reading the flatbuffer)") from None
     if not model.subgraphs:
         raise UserError(f"{source} has no subgraph")
+    return model
+
+
+def read_tflite(data: bytes, source: str = "npu.tflite") -> NpuModel:
+    """Tensors, inputs and outputs of the first subgraph of a ``.tflite`` flatbuffer."""
+    model = parse_tflite(data, source)
     graph = model.subgraphs[0]
     types = _tflite_type_names()
     tensors = {}
