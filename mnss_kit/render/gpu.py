@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
@@ -30,8 +29,9 @@ def context():
 
 def shader_source(name: str) -> str:
     """GLSL text of ``shaders/render/<name>`` with ``#include "file"`` lines expanded."""
-    text = (SHADER_DIR / name).read_text()
-    return re.sub(r'^#include "([^"]+)"\s*$', lambda m: shader_source(m.group(1)), text, flags=re.M)
+    from ..gpu.glsl import flatten_text
+
+    return flatten_text((SHADER_DIR / name).read_text(), SHADER_DIR)
 
 
 def program(ctx, vertex: str, fragment: str, defines: tuple[str, ...] = ()):
