@@ -79,7 +79,6 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
     import tempfile
 
     from ..quantize import command as quantize_command
-    from ..quantize.calibrate import record_stage_inputs
     from ..quantize.onnx_writer import to_onnx
     from ..quantize.stage import QuantizeOptions, quantize_module
     from ..quantize.tflite_writer import to_tflite
@@ -88,7 +87,7 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
         root = Path(data) if data else render_calibration_data(Path(tmp), progress)
         sequences = quantize_command.open_data(root, model.scale)
         log.info("recording %d reconstruction-net inputs from recurrent runs on %s", CALIBRATION_SAMPLES, root)
-        samples = record_stage_inputs(model, quantize_command.checked_frames(sequences), "recon", limit=CALIBRATION_SAMPLES)
+        samples = quantize_command.calibration_samples(model, sequences, CALIBRATION_SAMPLES, progress=progress)
     art = quantize_module(model.recon, samples, QuantizeOptions(method=method), name=name)
     graph = retarget(art.graph, model.recon, hr_size)
     calibrated_at = list(art.graph.tensors[art.graph.inputs[0]].shape[1:3][::-1])
@@ -107,25 +106,15 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
 def render_calibration_data(root: Path, progress: bool) -> Path:
     """The frames ``mnss-kit quantize`` calibrates on by default, rendered into ``root``.
 
-    Calibration reads the first :data:`CALIBRATION_SAMPLES` LR frames of the default data
-    config's sequences in directory order, so only those sequences are rendered, with one HR
-    sample per pixel: LR frames do not depend on the HR sample count, and the unused HR
-    reference is what makes the full render slow.
+    Calibration spreads :data:`CALIBRATION_SAMPLES` frames over every sequence of the default
+    data config, rendered with one HR sample per pixel: LR frames do not depend on the HR
+    sample count, and the unused HR reference is what makes the full render slow.
     """
-    from dataclasses import replace
-
     from ..quantize.command import DEFAULT_DATA_CONFIG
     from ..render.config import load_render_config
     from ..render.writer import render_dataset
 
-    config = load_render_config(DEFAULT_DATA_CONFIG, ["hr_samples=1"])
-    needed, frames = [], 0
-    for seq in sorted(config.sequences, key=lambda s: s.name):
-        if frames >= CALIBRATION_SAMPLES:
-            break
-        needed.append(seq)
-        frames += seq.frames
-    render_dataset(replace(config, sequences=needed), root, progress=progress)
+    render_dataset(load_render_config(DEFAULT_DATA_CONFIG, ["hr_samples=1"]), root, progress=progress)
     return root
 
 

@@ -21,7 +21,7 @@ import contextlib
 import io
 import tempfile
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -59,32 +59,6 @@ class InputRecorder:
 
     def __exit__(self, *exc):
         self._handle.remove()
-
-
-def record_stage_inputs(
-    model, frames: Iterable[dict], attribute: str = "recon", limit: int | None = None, progress: bool = False
-) -> list[list[np.ndarray]]:
-    """Run ``model(frame, state)`` recurrently over ``frames`` and record the inputs of ``model.<attribute>``.
-
-    ``frames``: dicts of batched float tensors for consecutive time steps (the
-    model resets its history on frames with ``reset`` set).
-    """
-    import torch
-    from tqdm import tqdm
-
-    state = None
-    with InputRecorder(getattr(model, attribute), limit) as rec, torch.no_grad(), tqdm(
-        total=limit, unit="sample", desc="recording", disable=not progress, dynamic_ncols=True
-    ) as bar:
-        for frame in frames:
-            if state is None:
-                state = model.initial_state(frame)
-            before = len(rec.samples)
-            _, _, state = model(frame, state)
-            bar.update(len(rec.samples) - before)
-            if limit is not None and len(rec.samples) >= limit:
-                break
-    return rec.samples
 
 
 def check_samples(graph: Graph, samples: Sequence[Sequence[np.ndarray]]) -> None:

@@ -84,7 +84,8 @@ def run(args: argparse.Namespace) -> int:
     for runtime, m in art.report["output"].items():
         print(f"{runtime:24s} output PSNR vs float stage {m['psnr_db']:.2f} dB")
     agree = art.report["agreement"]
-    print(f"LiteRT reference vs ONNX Runtime: per op <= {agree['per_op_max_lsb']} LSB, whole graph <= {agree['end_to_end_max_lsb']} LSB (int8 tensors)")
+    print(f"LiteRT vs ONNX Runtime on int8 tensors: per op <= {agree['per_op_max_lsb']} LSB; whole graph <= "
+          f"{agree['end_to_end_max_lsb_xnnpack']} LSB (XNNPACK), <= {agree['end_to_end_max_lsb']} LSB (reference kernels)")
     if "delta" in art.report:
         print()
         print(comparison_table(art.report))

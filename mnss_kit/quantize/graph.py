@@ -218,6 +218,24 @@ def _check_op_params(graph: Graph, op: Op) -> None:
             raise ValueError(f"{where}: bias scale must be input scale x weight scale, zero point 0")
 
 
+def prefix_graph(graph: Graph, name: str) -> Graph:
+    """The ops up to the one producing ``name``, with ``name`` as the only output.
+
+    Runs a tensor through the whole graph above it in runtimes that keep no intermediate
+    values (a delegate such as XNNPACK writes only its outputs).
+    """
+    ops = []
+    for op in graph.ops:
+        ops.append(op)
+        if name in op.outputs:
+            break
+    else:
+        raise ValueError(f"no op produces {name!r}")
+    used = {n for op in ops for n in op.inputs + op.outputs}
+    tensors = {n: t for n, t in graph.tensors.items() if n in used}
+    return Graph(tensors, ops, [n for n in graph.inputs if n in used], [name])
+
+
 def op_graph(graph: Graph, op: Op) -> Graph:
     """A graph holding only ``op``: its activation inputs become graph inputs (for per-op checks)."""
     names = list(dict.fromkeys(op.inputs + op.outputs))

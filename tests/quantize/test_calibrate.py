@@ -6,7 +6,8 @@ import torch
 
 from mnss_kit.errors import UserError
 from mnss_kit.ops import quant as Q
-from mnss_kit.quantize.calibrate import InputRecorder, calibrate, mse_range, record_stage_inputs
+from mnss_kit.quantize.calibrate import InputRecorder, calibrate, mse_range
+from mnss_kit.quantize.command import calibration_samples
 
 
 @pytest.mark.parametrize("method", ["minmax", "percentile", "entropy", "mse"])
@@ -58,7 +59,7 @@ def test_mse_range_beats_minmax_on_its_own_objective():
     assert mse((lo, hi)) < mse((float(x.min()), float(x.max())))
 
 
-def test_recorder_keeps_stage_inputs_of_recurrent_runs():
+def test_calibration_samples_come_from_recurrent_runs_of_every_sequence():
     class Model(torch.nn.Module):
         """Toy recurrent model: the NPU stage sees the previous output, as MNSS's recon does."""
 
@@ -66,21 +67,24 @@ def test_recorder_keeps_stage_inputs_of_recurrent_runs():
             super().__init__()
             self.recon = torch.nn.Conv2d(3, 3, 1)
 
-        def initial_state(self, frame):
-            return {"history": torch.zeros_like(frame["color"])}
-
         def forward(self, frame, state):
-            out = self.recon(frame["color"] + state["history"])
+            history = torch.zeros_like(frame["color"]) if state is None else state["history"]
+            out = self.recon(frame["color"] + history)
             return out, {}, {"history": out}
 
+    class Sequence(list):
+        name = "toy"
+
     model = Model()
-    frames = [{"color": torch.rand(2, 3, 4, 4)} for _ in range(3)]
-    samples = record_stage_inputs(model, frames, "recon", limit=5)
-    assert len(samples) == 5 and all(s[0].shape == (1, 3, 4, 4) for s in samples)
-    # the third frame's inputs include the history of the second
+    sequences = [Sequence({"color": torch.rand(1, 3, 4, 4)} for _ in range(4)) for _ in range(2)]
+    samples = calibration_samples(model, sequences, 4)
+    assert len(samples) == 4 and all(s[0].shape == (1, 3, 4, 4) for s in samples)
+    # frames 0 and 3 of each sequence; frame 3's input carries the history of frames 0-2
     with torch.no_grad():
-        out0 = model.recon(frames[0]["color"])
-    np.testing.assert_allclose(samples[2][0][0], (frames[1]["color"] + out0)[0].numpy(), atol=1e-6)
+        _, _, state = model(sequences[1][0], None)
+        for frame in sequences[1][1:3]:
+            _, _, state = model(frame, state)
+    np.testing.assert_allclose(samples[3][0], (sequences[1][3]["color"] + state["history"]).numpy(), atol=1e-6)
     assert not model.recon._forward_hooks  # the hook is removed afterwards
     with InputRecorder(model.recon) as rec:
         model.recon(torch.rand(1, 3, 4, 4))
