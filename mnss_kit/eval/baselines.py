@@ -17,8 +17,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from ..metrics.temporal import offscreen
-from ..ops.warp import upsample_motion, warp_bilinear
+from ..ops.warp import offscreen, upsample_motion, warp_bilinear
 
 
 class Bicubic:

@@ -54,11 +54,13 @@ class ReferencePasses:
 
     def warp(self, history, prev_depth, motion, prev_jitter, jitter, scale: int):
         """warp_pass.  history (H,W,3), prev_depth (h,w,1), motion (h,w,2) LR pixels ->
-        (I_W (H,W,3) fp16 values, D_W at this frame's sampled sub-pixels (h,w,1) float32)."""
+        (I_W (H,W,3) fp16 values, D_W at this frame's sampled sub-pixels (h,w,1) float32, ``ops.warp.OFFSCREEN_DEPTH``
+        where the surface was outside the previous frame)."""
         hr_motion = warp.upsample_motion(np.asarray(motion, np.float32), scale)
         hr_depth = subpixel.jittered_upsample(np.asarray(prev_depth, np.float32), as_jitter(prev_jitter), scale)
-        both = warp.warp_bilinear(np.concatenate([to_half(history), hr_depth], axis=-1), hr_motion)
-        return to_half(both[..., :3]), subpixel.extract_samples(both[..., 3:], as_jitter(jitter), scale)
+        warped = warp.warp_bilinear(to_half(history), hr_motion)
+        warped_depth = warp.warp_depth(hr_depth, hr_motion)
+        return to_half(warped), subpixel.extract_samples(warped_depth, as_jitter(jitter), scale)
 
     def inpaint_weights(self, color, depth, warped, warped_depth, jitter, scale: int, conv: Conv3x3, activation: str):
         """inpaint_weights_pass -> LR weights (h,w,1) float32 in [0, 1]."""

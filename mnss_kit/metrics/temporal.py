@@ -33,8 +33,8 @@ import numpy as np
 import torch
 
 from ..ops.colour import luminance
-from ..ops.resample import avgpool, pixel_grid
-from ..ops.warp import warp_bilinear
+from ..ops.resample import avgpool
+from ..ops.warp import offscreen, warp_bilinear
 from .image import WINDOW_SIZE, ssim_map, to_tensor
 
 POOL = 2
@@ -59,15 +59,6 @@ def shading_threshold(luma: np.ndarray) -> np.ndarray:
     them directly.
     """
     return SHADING_FLOOR + SHADING_WEBER * np.asarray(luma, dtype=np.float32)
-
-
-def offscreen(motion: np.ndarray) -> np.ndarray:
-    """``(H, W)`` bool: pixels whose motion ``(H, W, 2)`` points outside the previous frame."""
-    h, w = motion.shape[:2]
-    x, y = pixel_grid(h, w)
-    px = x + motion[..., 0]
-    py = y + motion[..., 1]
-    return (px < 0) | (px >= w) | (py < 0) | (py >= h)
 
 
 @dataclass(frozen=True)

@@ -63,6 +63,14 @@ def warp_bilinear(history: torch.Tensor, motion: torch.Tensor) -> torch.Tensor:
     return bilinear_sample(history, x + motion[:, 0], y + motion[:, 1])
 
 
+def offscreen(motion: torch.Tensor) -> torch.Tensor:
+    """``(N, 1, H, W)`` bool: pixels whose motion ``(N, 2, H, W)`` points outside the previous frame (``ops.warp.offscreen``)."""
+    h, w = motion.shape[-2:]
+    x, y = pixel_grid(h, w, motion)
+    px, py = x + motion[:, 0], y + motion[:, 1]
+    return ((px < 0) | (px >= w) | (py < 0) | (py >= h)).unsqueeze(1)
+
+
 def upsample_motion(motion_lr: torch.Tensor, scale: int) -> torch.Tensor:
     """LR motion ``(N, 2, h, w)`` in LR pixels -> HR motion ``(N, 2, h*s, w*s)`` in HR pixels."""
     return upsample_bilinear(motion_lr, scale) * scale

@@ -3,7 +3,7 @@
 Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``:
 
     warp     (gpu)  previous output I_SS and upsampled previous depth, backward-warped by the
-                    upsampled current motion                             -> I_W, D_W
+                    upsampled current motion (D_W = -1 where that leaves the frame) -> I_W, D_W
     inpaint  (gpu)  |LR colour, depth - I_W, D_W at this frame's sub-pixels| -> 3x3 conv ->
                     sigmoid (or tanh clipped to [0, 1]) -> upsampled (bilinear at the jittered
                     sample positions, or nearest) to the HR weight map M_w; I_U = LR samples at
@@ -30,12 +30,14 @@ from .layers import (
     extract_samples,
     insert_samples,
     jittered_upsample,
+    offscreen,
     unsharp,
     upsample_bilinear,
     upsample_motion,
     warp_bilinear,
 )
 from ..errors import UserError
+from ..ops.warp import OFFSCREEN_DEPTH
 
 STAGE_ORDER = ("warp", "inpaint", "aa", "insert", "recon", "enhance")
 FRAME_SHAPES = {"color": 3, "depth": 1, "motion": 2}  # LR buffers and their channel counts
@@ -44,6 +46,9 @@ FRAME_SHAPES = {"color": 3, "depth": 1, "motion": 2}  # LR buffers and their cha
 def conv_stack(c_in: int, width: int, layers: int, c_out: int) -> nn.Sequential:
     """``layers`` 3x3 convs with bias and ReLU between them (none after the last).
 
+    The hidden convs start He-normal with zero bias: PyTorch's default (uniform weights and
+    biases of the same small size) leaves the ReLUs of a second hidden layer fed by [0, 1]
+    images dead from the first step, and a dead layer never gets a gradient to recover.
     The last conv starts at zero, so a fresh net adds nothing to its residual base.
     """
     widths = [c_in] + [width] * (layers - 1) + [c_out]
@@ -51,6 +56,8 @@ def conv_stack(c_in: int, width: int, layers: int, c_out: int) -> nn.Sequential:
     for i in range(layers):
         mods.append(nn.Conv2d(widths[i], widths[i + 1], 3, padding=1))
         if i < layers - 1:
+            nn.init.kaiming_normal_(mods[-1].weight, nonlinearity="relu")
+            nn.init.zeros_(mods[-1].bias)
             mods.append(nn.ReLU())
     nn.init.zeros_(mods[-1].weight)
     nn.init.zeros_(mods[-1].bias)
@@ -58,7 +65,12 @@ def conv_stack(c_in: int, width: int, layers: int, c_out: int) -> nn.Sequential:
 
 
 class Warp(nn.Module):
-    """Backward bilinear warp of the history and of the previous depth (clamp-to-edge)."""
+    """Backward bilinear warp of the history and of the previous depth (clamp-to-edge).
+
+    Where the surface was outside the previous frame the warped depth is ``OFFSCREEN_DEPTH``,
+    so the inpainting sees a depth difference of at least 1 there and can drop the clamped
+    edge texels a fast pan would otherwise carry in as history.
+    """
 
     placement = "gpu"
 
@@ -72,7 +84,8 @@ class Warp(nn.Module):
         hr_motion = upsample_motion(motion, self.scale)
         hr_depth = jittered_upsample(prev_depth, prev_jitter, self.scale)
         warped = warp_bilinear(torch.cat([history, hr_depth], dim=1), hr_motion)
-        return warped[:, :3], warped[:, 3:]
+        warped_depth = torch.where(offscreen(hr_motion), OFFSCREEN_DEPTH, warped[:, 3:])
+        return warped[:, :3], warped_depth
 
 
 class Inpaint(nn.Module):

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from java_harness import REPO, JavaCore, compile_core, missing_tools
+from fixture_weights import randomise_convs
 
 BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size: its frames become the golden frames
 
@@ -38,10 +39,7 @@ def tiny_bundle(tmp_path_factory, synthetic_dataset) -> Path:
     root = tmp_path_factory.mktemp("android_bundle")
     torch.manual_seed(0)
     model = build_model(load_model_config(str(REPO / "configs" / "models" / "mnss_x2_tiny.yaml"))).eval()
-    with torch.no_grad():
-        for name, p in model.named_parameters():
-            if name.startswith(("recon", "aa")):
-                p.add_(torch.randn_like(p) * 0.05)
+    randomise_convs(model)
     ckpt = checkpoint.save(root / "mnss_x2_tiny.pt", model, {"jitter_pattern": "mnss"})
     out = root / "bundle"
     code = main(["export", str(ckpt), "--out", str(out), "--resolution", BUNDLE_SIZE, "--data", str(synthetic_dataset), "--no-progress"])

@@ -21,6 +21,7 @@ from mnss_kit.emulate.npu import NPU_PROFILES
 from mnss_kit.emulate.sequence import sequence_frames
 from mnss_kit.errors import UserError
 from mnss_kit.export.manifest import file_table
+from fixture_weights import randomise_convs
 
 FRAMES = 12
 LITERT_PROFILES = [p.name for p in NPU_PROFILES.values() if p.runtime == "litert"]
@@ -42,10 +43,7 @@ def shared_bundle(tmp_path_factory) -> Path:
         write_synthetic_sequence(root / "data" / "pan", name="pan", lr_size=(32, 24), scale=2, frames=FRAMES)
         torch.manual_seed(0)
         model = build_model(load_model_config("mnss_x2")).eval()
-        with torch.no_grad():  # the last convs start at zero: perturb so every tensor carries signal
-            for name, p in model.named_parameters():
-                if name.startswith(("recon", "aa")):
-                    p.add_(torch.randn_like(p) * 0.05)
+        randomise_convs(model)  # the last convs start at zero: random weights so every tensor carries signal
         ckpt = checkpoint.save(root / "mnss_x2.pt", model, {"jitter_pattern": "mnss"})
         code = main(["export", str(ckpt), "--out", str(root / "bundle"), "--resolution", "64x48",
                      "--data", str(root / "data"), "--no-progress"])
@@ -131,13 +129,16 @@ def test_wrong_profile_is_detected(root, frames):
 
 
 def test_onnxruntime_backend_runs_the_bundle(root, frames):
-    """On the first (reset) frame both NPU stages see the same input: other rounding, at most 1 LSB apart."""
+    """On the first (reset) frame both NPU stages see the same input.  Their roundings differ near
+    ties by at most 1 LSB per op (tests/quantize); through the whole graph such a difference can
+    grow downstream, so: at most 2 LSB anywhere, and 99% of values within 1."""
     emulator = Emulator(root / "bundle", "ort-cpu", "onnxruntime")
     reference = Emulator(root / "bundle", "tflite-ref", "numpy")
     first = [(emulator.run_frame(f), reference.run_frame(f)) for f in frames[:3]][0]
     a, b = first
     assert a.npu_output.shape == b.npu_output.shape and a.npu_output.dtype == np.int8
-    assert int(np.max(np.abs(a.npu_output.astype(np.int16) - b.npu_output))) <= 1
+    diff = np.abs(a.npu_output.astype(np.int16) - b.npu_output)
+    assert int(diff.max()) <= 2 and np.count_nonzero(diff > 1) < 0.01 * diff.size
 
 
 def test_numpy_equals_onnxruntime_over_recurrent_frames(root, frames):

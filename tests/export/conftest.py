@@ -12,20 +12,17 @@ BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size, so its frames serve as
 
 
 def tiny_checkpoint(path: Path, seed: int = 0) -> Path:
-    """An untrained mnss_x2_tiny checkpoint with the zero-initialised last convs perturbed (so every
-    tensor carries signal and quantization is not trivial)."""
+    """An untrained mnss_x2_tiny checkpoint with random AA and reconstruction weights
+    (``fixture_weights.randomise_convs``)."""
     import torch
+    from fixture_weights import randomise_convs
 
     from mnss_kit.model import checkpoint
     from mnss_kit.model.config import load_model_config
     from mnss_kit.model.families import build_model
 
     torch.manual_seed(seed)
-    model = build_model(load_model_config("mnss_x2_tiny")).eval()
-    with torch.no_grad():
-        for name, p in model.named_parameters():
-            if name.startswith(("recon", "aa")):
-                p.add_(torch.randn_like(p) * 0.05)
+    model = randomise_convs(build_model(load_model_config("mnss_x2_tiny")).eval())
     return checkpoint.save(path, model, {"jitter_pattern": "mnss"})
 
 

@@ -16,6 +16,7 @@ from mnss_kit.export.pipeline import ExportRequest, export
 from mnss_kit.model import checkpoint
 from mnss_kit.model.config import ModelConfig
 from mnss_kit.model.families import build_model
+from fixture_weights import randomise_convs
 
 VARIANTS = {
     "enhance_tanh_nearest": dict(enhance=True, inpaint_activation="tanh", weight_upsample="nearest", aa_layers=3),
@@ -30,9 +31,7 @@ def test_variant_bundle_checks_and_replays(variant, synthetic_dataset, tmp_path)
 
     torch.manual_seed(1)
     model = build_model(ModelConfig(**{"scale": 2, "recon_width": 8, "aa_width": 8, **VARIANTS[variant]})).eval()
-    with torch.no_grad():
-        for name, p in model.named_parameters():
-            p.add_(torch.randn_like(p) * 0.05)
+    randomise_convs(model, prefixes=("",))
     ckpt = checkpoint.save(tmp_path / f"{variant}.pt", model, {"jitter_pattern": "mnss"})
     data, size = synthetic_dataset, "64x48"
     if model.scale != 2:

@@ -11,6 +11,7 @@ from gpu_helpers import FLOAT_ATOL, assert_float_close, pattern_jitters, random_
 from mnss_kit.gpu.reference import to_half
 from mnss_kit.ops.jitter import PATTERNS
 from mnss_kit.ops.sharpen import unsharp
+from mnss_kit.ops.warp import OFFSCREEN_DEPTH
 
 CASES = [(p, s) for p in PATTERNS for s in (2, 3)]
 H, W = 5, 7  # LR size: odd, so edge clamping and partial workgroups are exercised
@@ -51,7 +52,9 @@ def test_warp_negative_and_off_screen_motion(mesa, ref, motion):
         assert_float_close(got, want)
     corner = {-40.0: (-1, 0), 55.0: (0, -1)}.get(motion)  # every source off-screen past one corner
     if corner is not None:
-        assert np.all(mesa.warp(*args)[0] == f["history"][corner])
+        warped, warped_depth = mesa.warp(*args)
+        assert np.all(warped == f["history"][corner])
+        assert np.all(warped_depth == OFFSCREEN_DEPTH)  # no history: the inpainting sees |depth - D_W| >= 1
 
 
 @pytest.mark.parametrize("scale", [2, 3])

@@ -105,6 +105,26 @@ def test_warp_stage_shifts_history_by_upsampled_motion(tiny_model):
     assert torch.allclose(warped[..., 2:, :-2], history[..., :-2, 2:], atol=1e-5)
 
 
+def test_warp_stage_marks_off_screen_depth_as_the_reference_does(tiny_model):
+    import numpy as np
+
+    from mnss_kit.ops import warp as ref_warp
+    from mnss_kit.ops.subpixel import jittered_upsample
+
+    model = tiny_model()
+    g = torch.Generator().manual_seed(3)
+    prev_depth = torch.rand(1, 1, 6, 8, generator=g)
+    motion = torch.randn(1, 2, 6, 8, generator=g) * 4.0  # some sources leave the 12x16 HR frame
+    _, warped_depth = model.warp(torch.rand(1, 3, 12, 16, generator=g), prev_depth, torch.zeros(1, 2), motion)
+    hr_motion = ref_warp.upsample_motion(motion[0].permute(1, 2, 0).numpy(), 2)
+    hr_depth = jittered_upsample(prev_depth[0].permute(1, 2, 0).numpy(), np.zeros(2, np.float32), 2)
+    want = ref_warp.warp_depth(hr_depth, hr_motion)
+    off = ref_warp.offscreen(hr_motion)
+    assert 0 < off.sum() < off.size
+    assert torch.equal(warped_depth[0, 0] == ref_warp.OFFSCREEN_DEPTH, torch.from_numpy(off))
+    assert np.allclose(warped_depth[0].permute(1, 2, 0).numpy(), want, atol=1e-5)
+
+
 def test_gradients_reach_every_parameter(tiny_model):
     model = tiny_model().train()
     state = None

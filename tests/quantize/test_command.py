@@ -14,6 +14,7 @@ from mnss_kit.model import checkpoint
 from mnss_kit.model.config import ModelConfig
 from mnss_kit.model.families import build_model
 from mnss_kit.quantize.command import sample_frames
+from fixture_weights import randomise_convs
 
 TINY = dict(scale=2, recon_width=8, recon_layers=3, aa_width=4, aa_layers=1)
 
@@ -22,9 +23,7 @@ TINY = dict(scale=2, recon_width=8, recon_layers=3, aa_width=4, aa_layers=1)
 def tiny_checkpoint(tmp_path_factory):
     torch.manual_seed(0)
     model = build_model(ModelConfig(**TINY))
-    with torch.no_grad():  # a fresh model's last conv is zero: give every layer something to quantize
-        for p in model.parameters():
-            p.add_(torch.randn_like(p) * 0.05)
+    randomise_convs(model, prefixes=("",))  # a fresh model's last conv is zero: give every layer something to quantize
     return checkpoint.save(tmp_path_factory.mktemp("ckpt") / "tiny.pt", model, {"jitter_pattern": "mnss"})
 
 

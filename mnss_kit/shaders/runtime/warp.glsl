@@ -20,9 +20,20 @@ vec3 warp_history(highp sampler2D history, vec2 source) {
     return bilinear_sample(history, source).rgb;
 }
 
-// D_W: the previous LR depth, upsampled with the previous frame's jitter, sampled at `source`.
+// ops.warp.OFFSCREEN_DEPTH: D_W where the surface was outside the previous frame (no history there).
+const float OFFSCREEN_DEPTH = -1.0;
+
+bool is_offscreen(vec2 source, ivec2 hr_size) {
+    return any(lessThan(source, vec2(0.0))) || any(greaterThanEqual(source, vec2(hr_size)));
+}
+
+// D_W: the previous LR depth, upsampled with the previous frame's jitter, sampled at `source`;
+// OFFSCREEN_DEPTH when `source` lies outside the frame.
 float warp_depth(highp sampler2D prev_depth, vec2 source, ivec2 hr_size, vec2 prev_jitter, ivec2 prev_subpixel,
                  int scale) {
+    if (is_offscreen(source, hr_size)) {
+        return OFFSCREEN_DEPTH;
+    }
     BilinearTaps t = bilinear_taps(source, hr_size);
     float a = jittered_upsample_at(prev_depth, t.lo, prev_jitter, prev_subpixel, scale).x;
     float b = jittered_upsample_at(prev_depth, ivec2(t.hi.x, t.lo.y), prev_jitter, prev_subpixel, scale).x;
