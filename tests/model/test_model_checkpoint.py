@@ -85,3 +85,37 @@ def test_bad_files_are_one_line_user_errors(saved, kind, message):
 def test_missing_file(tmp_path):
     with pytest.raises(UserError, match="no checkpoint"):
         checkpoint.load(tmp_path / "nope.pt")
+
+
+def test_shipped_model_nets_are_alive(tmp_path):
+    """Every hidden layer of the shipped AA and reconstruction nets fires on rendered-like frames,
+    and both nets change their input: a net whose hidden layer died adds a constant."""
+    from mnss_kit.dataset.loader import eval_sequences
+    from mnss_kit.dataset.synthetic import write_synthetic_sequence
+
+    model, _ = checkpoint.load("mnss_x2")
+    write_synthetic_sequence(tmp_path / "pan", lr_size=(48, 32), frames=6, name="pan")
+    (sequence,) = eval_sequences(tmp_path / "pan", progress=False)
+    fired: dict[str, torch.Tensor] = {}
+
+    def record(name):
+        def hook(module, inputs, output):
+            seen = (output > 0).flatten(2).any(dim=2).any(dim=0)
+            fired[name] = seen | fired.get(name, torch.zeros_like(seen))
+        return hook
+
+    for net_name in ("aa.net", "recon.body"):
+        net = model.get_submodule(net_name)
+        for i, module in enumerate(net):
+            if isinstance(module, torch.nn.ReLU):
+                module.register_forward_hook(record(f"{net_name}.{i}"))
+    state, changed = None, {"aa": 0.0, "recon": 0.0}
+    with torch.no_grad():
+        for frame in sequence:
+            output, aux, state = model({k: v for k, v in frame.items() if k != "reference"}, state)
+            changed["aa"] = max(changed["aa"], float((aux["aa"] - frame["color"].clamp(0, 1)).abs().max()))
+            changed["recon"] = max(changed["recon"], float((output - aux["history"]).abs().max()))
+    assert len(fired) == 5
+    for name, seen in fired.items():
+        assert seen.float().mean() >= 0.25, f"{name}: only {seen.float().mean():.0%} of the units ever fire"
+    assert min(changed.values()) > 0.01, changed
