@@ -46,9 +46,9 @@ FRAME_SHAPES = {"color": 3, "depth": 1, "motion": 2}  # LR buffers and their cha
 def conv_stack(c_in: int, width: int, layers: int, c_out: int) -> nn.Sequential:
     """``layers`` 3x3 convs with bias and ReLU between them (none after the last).
 
-    The hidden convs start He-normal with zero bias: PyTorch's default (uniform weights and
-    biases of the same small size) leaves the ReLUs of a second hidden layer fed by [0, 1]
-    images dead from the first step, and a dead layer never gets a gradient to recover.
+    The hidden convs start He-normal with zero bias: with PyTorch's default (uniform weights
+    and biases of the same small size) the AA net's second hidden layer died within a few
+    hundred Adam steps on rendered frames, and a dead layer gets no gradient to recover.
     The last conv starts at zero, so a fresh net adds nothing to its residual base.
     """
     widths = [c_in] + [width] * (layers - 1) + [c_out]
