@@ -92,7 +92,7 @@ def _sources(request: ExportRequest) -> tuple[str, NpuArtifacts | None, dict]:
     """``(checkpoint, NPU files or None, quantize report)``: MODEL is a checkpoint, or a quantize
     directory whose checkpoint comes from ``--checkpoint`` (or its report)."""
     source = Path(request.model)
-    if not source.is_dir():
+    if not source.is_dir() or _names_shipped_model(source):
         if request.checkpoint:
             raise UserError("--checkpoint goes with a quantize directory as MODEL; MODEL is already a checkpoint")
         return request.model, None, {}
@@ -101,6 +101,14 @@ def _sources(request: ExportRequest) -> tuple[str, NpuArtifacts | None, dict]:
     if not ckpt:
         raise UserError(f"{source} is a quantize directory: give the checkpoint it came from with --checkpoint")
     return ckpt, npu, report
+
+
+def _names_shipped_model(directory: Path) -> bool:
+    """A bare shipped name that only happens to match a local directory which is no quantize output
+    (e.g. a training run ``./mnss_x2``): the shipped checkpoint, as in every other command."""
+    from ..model.checkpoint import shipped_names
+
+    return directory.parent == Path(".") and directory.name in shipped_names() and not (directory / "npu.tflite").exists()
 
 
 class _Clock:

@@ -99,3 +99,16 @@ def test_command_choices_mirror_their_sources():
     assert command.PROFILES == tuple(PROFILE_RESOLVERS)
     assert command.METHODS == METHODS
     assert command.PLACEMENTS == PLACEMENTS
+
+
+def test_a_run_directory_named_like_a_shipped_model_does_not_hide_it(tmp_path, monkeypatch):
+    """``mnss-kit export mnss_x2`` next to a training run ``./mnss_x2`` exports the shipped checkpoint,
+    as eval and quantize do; a quantize output directory of that name is still taken as one."""
+    from mnss_kit.export.pipeline import _sources
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mnss_x2").mkdir()
+    assert _sources(ExportRequest(model="mnss_x2", out=tmp_path / "b")) == ("mnss_x2", None, {})
+    (tmp_path / "mnss_x2" / "npu.tflite").write_bytes(b"")
+    with pytest.raises(UserError, match="quantize directory"):
+        _sources(ExportRequest(model="mnss_x2", out=tmp_path / "b"))
