@@ -46,18 +46,14 @@ def make_bundle(root: Path, frames: int) -> tuple[Path, Path]:
     from mnss_kit.dataset.synthetic import write_synthetic_sequence
     from mnss_kit.model import checkpoint
     from mnss_kit.model.config import load_model_config
-    from mnss_kit.model.families import build_model
+    from mnss_kit.model.families import build_model, randomise_convs
 
     calibration = root / "calibration"
     write_synthetic_sequence(calibration / "small", lr_size=(64, 36), scale=2, frames=8, name="small")
     data = root / "data"
     write_synthetic_sequence(data / "pan", lr_size=(HR_SIZE[0] // 2, HR_SIZE[1] // 2), scale=2, frames=frames, name="pan")
     torch.manual_seed(0)
-    model = build_model(load_model_config("mnss_x2")).eval()
-    with torch.no_grad():
-        for name, p in model.named_parameters():
-            if name.startswith(("recon", "aa")):
-                p.add_(torch.randn_like(p) * 0.05)
+    model = randomise_convs(build_model(load_model_config("mnss_x2")).eval())
     ckpt = checkpoint.save(root / "mnss_x2.pt", model, {"jitter_pattern": "mnss"})
     bundle = root / "bundle"
     code = main(["export", str(ckpt), "--out", str(bundle), "--resolution", f"{HR_SIZE[0]}x{HR_SIZE[1]}",

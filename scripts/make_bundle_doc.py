@@ -31,14 +31,10 @@ def export_example(root: Path) -> Path:
     from mnss_kit.export.pipeline import ExportRequest, export
     from mnss_kit.model import checkpoint
     from mnss_kit.model.config import load_model_config
-    from mnss_kit.model.families import build_model
+    from mnss_kit.model.families import build_model, randomise_convs
 
     torch.manual_seed(0)
-    model = build_model(load_model_config("mnss_x2_tiny")).eval()
-    with torch.no_grad():
-        for name, p in model.named_parameters():
-            if name.startswith(("recon", "aa")):
-                p.add_(torch.randn_like(p) * 0.05)
+    model = randomise_convs(build_model(load_model_config("mnss_x2_tiny")).eval())
     ckpt = checkpoint.save(root / "mnss_x2_tiny.pt", model, {"jitter_pattern": "mnss"})
     write_synthetic_sequence(root / "data" / "pan", lr_size=(32, 24), frames=8, name="pan")
     os.chdir(root)  # relative paths, so the manifest example names no temporary directory

@@ -11,7 +11,6 @@ from pathlib import Path
 import pytest
 
 from java_harness import REPO, JavaCore, compile_core, missing_tools
-from fixture_weights import randomise_convs
 
 BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size: its frames become the golden frames
 
@@ -34,7 +33,7 @@ def tiny_bundle(tmp_path_factory, synthetic_dataset) -> Path:
     from mnss_kit.cli import main
     from mnss_kit.model import checkpoint
     from mnss_kit.model.config import load_model_config
-    from mnss_kit.model.families import build_model
+    from mnss_kit.model.families import build_model, randomise_convs
 
     root = tmp_path_factory.mktemp("android_bundle")
     torch.manual_seed(0)

@@ -21,7 +21,6 @@ from mnss_kit.emulate.npu import NPU_PROFILES
 from mnss_kit.emulate.sequence import sequence_frames
 from mnss_kit.errors import UserError
 from mnss_kit.export.manifest import file_table
-from fixture_weights import randomise_convs
 
 FRAMES = 12
 LITERT_PROFILES = [p.name for p in NPU_PROFILES.values() if p.runtime == "litert"]
@@ -37,7 +36,7 @@ def shared_bundle(tmp_path_factory) -> Path:
         from mnss_kit.dataset.synthetic import write_synthetic_sequence
         from mnss_kit.model import checkpoint
         from mnss_kit.model.config import load_model_config
-        from mnss_kit.model.families import build_model
+        from mnss_kit.model.families import build_model, randomise_convs
 
         root = tmp_path_factory.mktemp("emulate_bundle")
         write_synthetic_sequence(root / "data" / "pan", name="pan", lr_size=(32, 24), scale=2, frames=FRAMES)

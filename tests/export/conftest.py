@@ -13,13 +13,12 @@ BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size, so its frames serve as
 
 def tiny_checkpoint(path: Path, seed: int = 0) -> Path:
     """An untrained mnss_x2_tiny checkpoint with random AA and reconstruction weights
-    (``fixture_weights.randomise_convs``)."""
+    (``model.families.randomise_convs``)."""
     import torch
-    from fixture_weights import randomise_convs
-
+    
     from mnss_kit.model import checkpoint
     from mnss_kit.model.config import load_model_config
-    from mnss_kit.model.families import build_model
+    from mnss_kit.model.families import build_model, randomise_convs
 
     torch.manual_seed(seed)
     model = randomise_convs(build_model(load_model_config("mnss_x2_tiny")).eval())

@@ -15,8 +15,7 @@ from mnss_kit.export.check import check_bundle
 from mnss_kit.export.pipeline import ExportRequest, export
 from mnss_kit.model import checkpoint
 from mnss_kit.model.config import ModelConfig
-from mnss_kit.model.families import build_model
-from fixture_weights import randomise_convs
+from mnss_kit.model.families import build_model, randomise_convs
 
 VARIANTS = {
     "enhance_tanh_nearest": dict(enhance=True, inpaint_activation="tanh", weight_upsample="nearest", aa_layers=3),

@@ -12,9 +12,8 @@ from mnss_kit.dataset import format as fmt
 from mnss_kit.dataset.synthetic import write_synthetic_sequence
 from mnss_kit.model import checkpoint
 from mnss_kit.model.config import ModelConfig
-from mnss_kit.model.families import build_model
+from mnss_kit.model.families import build_model, randomise_convs
 from mnss_kit.quantize.command import sample_frames
-from fixture_weights import randomise_convs
 
 TINY = dict(scale=2, recon_width=8, recon_layers=3, aa_width=4, aa_layers=1)
 
