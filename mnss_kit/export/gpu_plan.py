@@ -20,6 +20,7 @@ import hashlib
 import numpy as np
 
 from ..gpu import passes as P
+from ..model.config import AA_INPUT_CHANNELS
 from ..gpu.schedule import GpuStage
 from ..gpu.weights import Conv3x3, layers_of
 from ..ops import quant
@@ -113,7 +114,8 @@ def resources(stage: GpuStage, lr_size: tuple[int, int]) -> list[dict]:
         tex("prev_depth", lr, "r32f", "state", "the previous frame's depth (the depth texture of the last frame)", 1),
         tex("unused", [1, 1], "r32f", "placeholder", "bound where a pass declares a texture it does not read in this configuration", 1),
         tex("rectified", hr, "rgba16f", "intermediate", "I_R, the rectified history", 3),
-        tex("aa_input", lr, "rgba16f", "intermediate", "AA net input: pooled I_R, then the colour", 6, layers=2),
+        tex("aa_input", lr, "rgba16f", "intermediate", "AA net input: pooled I_R, I_R at the sampled sub-pixels, the colour",
+            AA_INPUT_CHANNELS, layers=layers_of(AA_INPUT_CHANNELS)),
     ]
     if stage.with_history:
         out += [
@@ -205,7 +207,7 @@ def schedule(stage: GpuStage, lr_size: tuple[int, int], npu: dict, profile: str)
         "u_reset": _frame("reset") if stage.with_history else _const(1),
     }, **a))
     steps.append(_step("avgpool_pass", "aa input", "aa", {"rectified": "rectified", "color": "color", "aa_input": "aa_input"},
-                       {"u_scale": _const(s)}, **a))
+                       {"u_scale": _const(s), "u_subpixel": _frame("subpixel")}, **a))
     steps += _aa_steps(stage, **a)
     steps.append(_step("insert_pack_pass", "insert + pack", "insert", {"rectified": "rectified", "aa": "aa", "npu_input": "npu_input"}, {
         "u_scale": _const(s), "u_subpixel": _frame("subpixel"),

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UserError
+from ..model.config import AA_INPUT_CHANNELS
 
 
 def layers_of(channels: int) -> int:
@@ -87,6 +88,7 @@ class GpuWeights:
         for first, second in zip(aa, aa[1:]):
             if first.out_channels != second.in_channels:
                 raise UserError("anti-aliasing net layers do not chain (channel counts differ)")
-        if aa[0].in_channels != 6 or aa[-1].out_channels != 3:
-            raise UserError("anti-aliasing net must map 6 channels (pooled history, colour) to 3")
+        if aa[0].in_channels != AA_INPUT_CHANNELS or aa[-1].out_channels != 3:
+            raise UserError(f"anti-aliasing net must map {AA_INPUT_CHANNELS} channels (pooled history, history at "
+                            "the samples, colour) to 3; a model trained before that input existed needs retraining")
         return cls(inpaint, aa)

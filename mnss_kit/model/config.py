@@ -19,6 +19,9 @@ from ..errors import UserError
 
 SCHEMA_VERSION = 1
 TOP_LEVEL_KEYS = ("schema", "model", "train", "data")
+# The anti-aliasing net's input channels, in order: avgpool(I_R), I_R at this frame's sampled
+# sub-pixels, LR colour (each RGB).  The torch model, the GPU passes and the bundle share it.
+AA_INPUT_CHANNELS = 9
 
 
 @dataclass

@@ -9,7 +9,8 @@ Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``:
                     sample positions, or nearest) to the HR weight map M_w; I_U = LR samples at
                     their sampled HR pixels, the rest bilinear (``ops.subpixel.jittered_upsample``);
                     rectified history I_R = M_w I_U + (1 - M_w) I_W
-    aa       (gpu)  conv net on [avgpool(I_R), LR colour]                -> I_AA (LR)
+    aa       (gpu)  conv net on [avgpool(I_R), I_R at this frame's sub-pixels, LR colour]
+                    -> I_AA (LR)
     insert   (gpu)  I_AA written into I_R at this frame's sub-pixels
     recon    (npu)  conv net, residual on its input, clamped to [0, 1]   -> I_SS
     enhance  (gpu)  optional unsharp kernel on the displayed output
@@ -24,7 +25,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from .config import ModelConfig
+from .config import AA_INPUT_CHANNELS, ModelConfig
 from .layers import (
     avgpool,
     extract_samples,
@@ -127,18 +128,25 @@ class Inpaint(nn.Module):
 
 
 class AntiAlias(nn.Module):
-    """I_AA: the LR frame cleaned with the help of the pooled rectified history (residual on the LR frame)."""
+    """I_AA: the LR frame cleaned with the help of the rectified history (residual on the LR frame).
+
+    Besides the pooled history (the paper's input) the net sees the rectified history at the
+    sub-pixels this frame samples, which I_AA replaces: without it a static view flickers,
+    because each frame swaps accumulated values for fresh aliased samples the net cannot
+    compare them with.
+    """
 
     placement = "gpu"
 
     def __init__(self, scale: int, width: int, layers: int):
         super().__init__()
         self.scale = scale
-        self.net = conv_stack(6, width, layers, 3)
+        self.net = conv_stack(AA_INPUT_CHANNELS, width, layers, 3)
 
-    def forward(self, rectified, color):
-        """I_R (N,3,H,W), LR colour (N,3,h,w) -> I_AA (N,3,h,w) in [0, 1]."""
-        x = torch.cat([avgpool(rectified, self.scale), color], dim=1)
+    def forward(self, rectified, color, jitter):
+        """I_R (N,3,H,W), LR colour (N,3,h,w), jitter (N,2) -> I_AA (N,3,h,w) in [0, 1]."""
+        at_samples = extract_samples(rectified, jitter, self.scale)
+        x = torch.cat([avgpool(rectified, self.scale), at_samples, color], dim=1)
         return torch.clamp(color + self.net(x), 0.0, 1.0)
 
 
@@ -250,7 +258,7 @@ class MNSS(nn.Module):
             prev_jitter = torch.where(cut.view(n, 1), 0.0, state["jitter"])
             warped, warped_depth = self.warp(history, prev_depth, prev_jitter, motion)
         rectified, weight_map, upsampled = self.inpaint(color, depth, jitter, warped, warped_depth, cut)
-        aa = self.aa(rectified, color)
+        aa = self.aa(rectified, color, jitter)
         recon = self.recon(self.insert(rectified, aa, jitter))
         output = self.enhance(recon) if self.enhance is not None else recon
         aux = {"aa": aa, "weight_map": weight_map, "history": rectified, "upsampled": upsampled, "recon": recon}

@@ -7,8 +7,10 @@ import json
 import numpy as np
 import pytest
 import torch
+import yaml
 
 from mnss_kit.cli import main
+from mnss_kit.config import CONFIG_DIR
 from mnss_kit.errors import UserError
 from mnss_kit.export.check import check_bundle
 from mnss_kit.export.npu_stage import retarget
@@ -48,7 +50,11 @@ def test_failed_export_leaves_nothing(tiny_ckpt, synthetic_dataset, tmp_path, mo
 
 
 def test_placement_with_more_than_recon_on_the_npu_is_refused(tiny_ckpt, tmp_path):
-    request = ExportRequest(model=str(tiny_ckpt), out=tmp_path / "b", resolution="64x48", device="snapdragon_8_gen_1",
+    # A device whose NPU also takes GATHER_ND (the AA net's sample extraction) can run the AA net.
+    device = yaml.safe_load((CONFIG_DIR / "devices" / "snapdragon_8_gen_1.yaml").read_text())
+    device["npu"]["ops"].append("GATHER_ND")
+    (tmp_path / "phone.yaml").write_text(yaml.safe_dump(device))
+    request = ExportRequest(model=str(tiny_ckpt), out=tmp_path / "b", resolution="64x48", device=str(tmp_path / "phone.yaml"),
                             placement="aa-on-npu", progress=False)
     with pytest.raises(UserError, match="runs aa, recon on the NPU"):
         export(request)

@@ -76,7 +76,7 @@ def model_gpu_side(model, frame, state, reset: bool) -> dict:
     with torch.no_grad():
         warped, warped_depth = model.warp(nchw(state["history"]), nchw(state["depth"]), prev_jitter, nchw(frame["motion"]))
         rectified, _, _ = model.inpaint(color, depth, jitter, warped, warped_depth, cut)
-        aa = model.aa(rectified, color)
+        aa = model.aa(rectified, color, jitter)
         inserted = model.insert(rectified, aa, jitter)
     return {"warped": hwc(warped), "rectified": hwc(rectified), "aa": hwc(aa), "inserted": hwc(inserted)}
 

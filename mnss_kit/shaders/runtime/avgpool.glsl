@@ -1,6 +1,6 @@
-// Anti-aliasing net input (MNSS): [avgpool(I_R) to LR, LR colour], six channels in two layers of
-// four: (pool.r, pool.g, pool.b, color.r), (color.g, color.b, 0, 0).  Binding-free; mirrors
-// ops.resample.avgpool.
+// Anti-aliasing net input (MNSS): [avgpool(I_R) to LR, I_R at this frame's sampled sub-pixels,
+// LR colour], nine channels in three layers of four: (pool.rgb, sample.r), (sample.gb, color.rg),
+// (color.b, 0, 0, 0).  Binding-free; mirrors ops.resample.avgpool and ops.subpixel.extract_samples.
 
 #include "common.glsl"
 
@@ -13,4 +13,9 @@ vec3 tile_mean(highp sampler2D hr, ivec2 p, int scale) {
         }
     }
     return sum / float(scale * scale);
+}
+
+// The HR texel of LR texel `p` that this frame samples.
+vec3 sampled_texel(highp sampler2D hr, ivec2 p, ivec2 subpixel, int scale) {
+    return texelFetch(hr, p * scale + subpixel, 0).rgb;
 }
