@@ -49,6 +49,7 @@ class TrainConfig:
     eps: float = 1e-4
     perceptual_weight: float = 0.1  # w
     aa_weight: float = 5.0  # k
+    flicker_weight: float = 0.0  # f: change of the error between consecutive frames (not in the paper; losses.py)
     gt_history_epochs: int = 1  # E: epochs that feed the ground-truth previous frame as history
     crop_mask: bool = True  # leave out of the loss the pixels whose history came from outside the crop
     bptt: int = 0  # detach the history every K frames; 0 = backpropagate through the whole window

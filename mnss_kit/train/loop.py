@@ -82,7 +82,7 @@ def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: 
              cfg.steps, world.size, cfg.batch_size, cfg.burn_in, cfg.window, cfg.crop, world.size, threads)
 
     summaries = Summaries((Path(cfg.log_dir) if cfg.log_dir else out_dir / "logs") if world.is_main else None, run.step)
-    chunk = WindowChunk(model, MNSSLoss(experiment.model.scale, cfg.perceptual_weight, cfg.aa_weight))
+    chunk = WindowChunk(model, MNSSLoss(experiment.model.scale, cfg.perceptual_weight, cfg.aa_weight, cfg.flicker_weight))
     runner = nn.parallel.DistributedDataParallel(chunk) if world.distributed else chunk
     try:
         steps_per_s = _run_steps(cfg, run, model, optimizer, runner, windows, val_windows, summaries, out_dir, record, world, progress)

@@ -3,6 +3,13 @@
 Per frame (Yang et al. 2023)::
 
     L = (1 - SSIM_11x11(I_SS, I_GT)) + w * perceptual(I_SS, I_GT) + k * mean|I_AA - I_GT[sampled]|
+        + f * flicker
+
+plus, off by default (f = 0; not in the paper), a flicker term: the change of the error from the
+previous frame, ``charbonnier(e_t - warp(e_{t-1}))`` with ``e = I_SS - I_GT``.  A per-frame loss
+is blind to errors that are small but differ from frame to frame, which a static view shows as
+flicker.  The term compares errors, not images, so a real change of the scene (and a
+disocclusion, where both warped images are wrong alike) costs nothing by itself.
 
 ``I_GT[sampled]`` is the HR reference at the HR pixels this frame's jittered
 samples landed on (an LR-sized image), so the anti-aliasing net is taught to
@@ -28,7 +35,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from ..metrics.image import ssim
-from ..model.layers import extract_samples
+from ..model.layers import extract_samples, upsample_motion, warp_bilinear
 
 # Band-pass and gradient differences of flat regions are rounding noise around zero; a plain L1 turns
 # that noise into full-size random gradient signs, the Charbonnier penalty (as in LapSRN) does not.
@@ -78,17 +85,29 @@ def pyramid_loss(output: torch.Tensor, target: torch.Tensor, levels: int = 3) ->
 class MNSSLoss(nn.Module):
     """Per-frame loss; ``forward`` returns a dict of scalar tensors (``total`` plus each term)."""
 
-    def __init__(self, scale: int, perceptual_weight: float = 0.1, aa_weight: float = 5.0):
+    def __init__(self, scale: int, perceptual_weight: float = 0.1, aa_weight: float = 5.0, flicker_weight: float = 0.0):
         super().__init__()
         self.scale = scale
         self.perceptual_weight = perceptual_weight
         self.aa_weight = aa_weight
+        self.flicker_weight = flicker_weight
 
-    def forward(self, output: torch.Tensor, aa: torch.Tensor, reference: torch.Tensor, jitter: torch.Tensor) -> dict[str, torch.Tensor]:
-        """``output``, ``reference`` (N, 3, H, W); ``aa`` (N, 3, h, w); ``jitter`` (N, 2) LR pixels."""
+    def forward(self, output: torch.Tensor, aa: torch.Tensor, reference: torch.Tensor, jitter: torch.Tensor,
+                flicker: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
+        """``output``, ``reference`` (N, 3, H, W); ``aa`` (N, 3, h, w); ``jitter`` (N, 2) LR pixels;
+        ``flicker``: :meth:`flicker` of this frame, or None (first frame: the term is 0)."""
         structural = 1.0 - ssim(output, reference).mean()
         perceptual = pyramid_loss(output, reference)
         aa_target = extract_samples(reference, jitter, self.scale)
         aa_term = F.l1_loss(aa, aa_target)
-        total = structural + self.perceptual_weight * perceptual + self.aa_weight * aa_term
-        return {"total": total, "ssim": structural, "perceptual": perceptual, "aa": aa_term}
+        flicker = output.new_zeros(()) if flicker is None else flicker
+        total = structural + self.perceptual_weight * perceptual + self.aa_weight * aa_term + self.flicker_weight * flicker
+        return {"total": total, "ssim": structural, "perceptual": perceptual, "aa": aa_term, "flicker": flicker}
+
+    def flicker(self, error: torch.Tensor, prev_error: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor | None) -> torch.Tensor:
+        """Change of the error ``e = I_SS - I_GT`` (N, 3, H, W) from the previous frame's, warped by
+        the LR ``motion`` (N, 2, h, w); frames with ``reset`` (N,) set have no previous frame."""
+        change = error - warp_bilinear(prev_error, upsample_motion(motion, self.scale))
+        if reset is not None:
+            change = change * (reset <= 0.5).to(change.dtype).view(-1, 1, 1, 1)
+        return charbonnier(change)

@@ -29,7 +29,7 @@ from ..metrics.image import psnr_torch
 from ..model.layers import avgpool, extract_samples, upsample_motion, warp_bilinear
 from .losses import MNSSLoss
 
-TERMS = ("total", "ssim", "perceptual", "aa")
+TERMS = ("total", "ssim", "perceptual", "aa", "flicker")
 
 
 def frame_at(batch: dict[str, torch.Tensor], t: int) -> dict[str, torch.Tensor]:
@@ -72,7 +72,7 @@ class WindowChunk(nn.Module):
 
     ``forward`` returns the chunk's loss (summed frame losses / ``loss_frames``,
     so the chunks of a window add up to the mean frame loss), its terms as a
-    detached ``(4,)`` tensor in ``TERMS`` order (same normalisation), and the
+    detached ``(5,)`` tensor in ``TERMS`` order (same normalisation), and the
     state and crop-validity mask (or None when not masking) after frame ``t1 - 1``.
     """
 
@@ -86,6 +86,7 @@ class WindowChunk(nn.Module):
         total = batch["reference"].new_zeros(())
         terms = batch["reference"].new_zeros(len(TERMS))
         scale = self.loss.scale
+        prev_error = None  # the flicker term pairs consecutive frames of this chunk
         for t in range(t0, t1):
             frame, state = _next_input(batch, t, state, gt_history)
             output, aux, state = self.model(frame, state)
@@ -94,7 +95,12 @@ class WindowChunk(nn.Module):
                 valid = crop_validity(valid, frame, scale)
                 output = torch.where(valid, output, reference)
                 aa = torch.where(avgpool(valid.to(aa.dtype), scale) > 0.999, aa, extract_samples(reference, frame["jitter"], scale))
-            parts = self.loss(output, aa, reference, frame["jitter"])
+            error = output - reference
+            flicker = None
+            if prev_error is not None and self.loss.flicker_weight > 0:
+                flicker = self.loss.flicker(error, prev_error, frame["motion"], frame.get("reset"))
+            prev_error = error
+            parts = self.loss(output, aa, reference, frame["jitter"], flicker)
             total = total + parts["total"]
             terms = terms + torch.stack([parts[k].detach() for k in TERMS])
         return total / loss_frames, terms / loss_frames, state, valid

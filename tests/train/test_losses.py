@@ -58,3 +58,32 @@ def test_loss_gradients_reach_both_outputs():
     aa = torch.rand(2, 3, 12, 16, requires_grad=True)
     MNSSLoss(scale=2)(output, aa, reference, torch.zeros(2, 2))["total"].backward()
     assert output.grad.abs().sum() > 0 and aa.grad.abs().sum() > 0
+
+
+def test_flicker_term_is_the_change_of_the_error_along_the_motion():
+    loss = MNSSLoss(scale=2, flicker_weight=1.0)
+    error = torch.rand(1, 3, 24, 32) - 0.5
+    still = torch.zeros(1, 2, 12, 16)
+    assert float(loss.flicker(error, error, still, None)) < 1e-9  # the same error every frame: no flicker
+    assert float(loss.flicker(error, -error, still, None)) > 0.3  # an error that flips sign flickers
+    assert float(loss.flicker(error, -error, still, torch.ones(1))) < 1e-9  # a cut has no previous frame
+    # The previous error moved one LR pixel (two HR pixels) right: warping it back makes it match.
+    moved = torch.roll(error, 2, dims=3)
+    motion = torch.zeros(1, 2, 12, 16)
+    motion[:, 0] = -1.0  # points from the current frame to where the content was
+    inner = (slice(None), slice(None), slice(None), slice(4, -4))
+    change = error - torch.roll(moved, -2, dims=3)
+    assert float(change[inner].abs().max()) == 0.0
+    aligned = loss.flicker(moved, error, motion, None)
+    assert float(aligned) < 0.2 * float(loss.flicker(moved, error, still, None))
+
+
+def test_flicker_weight_enters_the_total():
+    reference, output = _images(2)
+    aa = torch.rand(2, 3, 12, 16)
+    jitter = torch.zeros(2, 2)
+    flicker = torch.tensor(0.25)
+    off = MNSSLoss(scale=2)(output, aa, reference, jitter, flicker)
+    on = MNSSLoss(scale=2, flicker_weight=2.0)(output, aa, reference, jitter, flicker)
+    np.testing.assert_allclose(float(on["total"] - off["total"]), 0.5, rtol=1e-5)
+    assert float(on["flicker"]) == 0.25

@@ -47,7 +47,7 @@ def _assert_same_weights(a: dict, b: dict) -> None:
 
 
 def test_training_lowers_the_loss(write_experiment, tmp_path):
-    experiment, _ = load_experiment(write_experiment(epochs=1, steps_per_epoch=40, gt_history_epochs=0, batch_size=4, crop=16))
+    experiment, _ = load_experiment(write_experiment(epochs=1, steps_per_epoch=80, gt_history_epochs=0, batch_size=4, crop=16))
     torch.manual_seed(experiment.train.seed)
     before = _held_loss(build_model(experiment.model), experiment)
     final = train(experiment, tmp_path / "run", progress=False)
