@@ -20,7 +20,7 @@ import hashlib
 import numpy as np
 
 from ..gpu import passes as P
-from ..model.config import AA_INPUT_CHANNELS
+from ..model.config import aa_input_channels
 from ..gpu.schedule import GpuStage
 from ..gpu.weights import Conv3x3, layers_of
 from ..ops import quant
@@ -94,6 +94,8 @@ def resources(stage: GpuStage, lr_size: tuple[int, int]) -> list[dict]:
     hr = [w * stage.scale, h * stage.scale]
     lr = [w, h]
     words = -(-hr[0] * hr[1] * NPU_CHANNELS // 4)
+    aa_channels = aa_input_channels(stage.weights.aa_history_at_samples)
+    at_samples = "I_R at the sampled sub-pixels, " if stage.weights.aa_history_at_samples else ""
 
     def tex(name, size, fmt, role, note, channels, layers=0):
         entry = {"name": name, "kind": "texture2d_array" if layers else "texture2d", "size": size, "format": fmt,
@@ -114,8 +116,8 @@ def resources(stage: GpuStage, lr_size: tuple[int, int]) -> list[dict]:
         tex("prev_depth", lr, "r32f", "state", "the previous frame's depth (the depth texture of the last frame)", 1),
         tex("unused", [1, 1], "r32f", "placeholder", "bound where a pass declares a texture it does not read in this configuration", 1),
         tex("rectified", hr, "rgba16f", "intermediate", "I_R, the rectified history", 3),
-        tex("aa_input", lr, "rgba16f", "intermediate", "AA net input: pooled I_R, I_R at the sampled sub-pixels, the colour",
-            AA_INPUT_CHANNELS, layers=layers_of(AA_INPUT_CHANNELS)),
+        tex("aa_input", lr, "rgba16f", "intermediate", f"AA net input: pooled I_R, {at_samples}the colour",
+            aa_channels, layers=layers_of(aa_channels)),
     ]
     if stage.with_history:
         out += [
@@ -207,7 +209,8 @@ def schedule(stage: GpuStage, lr_size: tuple[int, int], npu: dict, profile: str)
         "u_reset": _frame("reset") if stage.with_history else _const(1),
     }, **a))
     steps.append(_step("avgpool_pass", "aa input", "aa", {"rectified": "rectified", "color": "color", "aa_input": "aa_input"},
-                       {"u_scale": _const(s), "u_subpixel": _frame("subpixel")}, **a))
+                       {"u_scale": _const(s), "u_subpixel": _frame("subpixel"),
+                        "u_history_at_samples": _const(int(stage.weights.aa_history_at_samples))}, **a))
     steps += _aa_steps(stage, **a)
     steps.append(_step("insert_pack_pass", "insert + pack", "insert", {"rectified": "rectified", "aa": "aa", "npu_input": "npu_input"}, {
         "u_scale": _const(s), "u_subpixel": _frame("subpixel"),

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from ..model.config import AA_INPUT_CHANNELS
+from ..model.config import aa_input_channels
 from ..ops.jitter import subpixel_index
 from . import passes as P
 from .glsl import flatten
@@ -247,12 +247,14 @@ class MesaPasses:
         return self.read(out, "rgba16f", 3)
 
     @_in_own_context
-    def avgpool(self, rectified, color, jitter, scale: int):
+    def avgpool(self, rectified, color, jitter, scale: int, history_at_samples: bool):
         h, w = color.shape[:2]
-        out = self.empty((w, h), "rgba16f", layers=layers_of(AA_INPUT_CHANNELS))
+        channels = aa_input_channels(history_at_samples)
+        out = self.empty((w, h), "rgba16f", layers=layers_of(channels))
         res = {"rectified": self.texture(rectified, "rgba16f"), "color": self.texture(color, "rgba16f"), "aa_input": out}
-        self.run("avgpool_pass", (w, h), res, {"u_scale": scale, "u_subpixel": _subpixel(jitter, scale)})
-        return self.read(out, "rgba16f", AA_INPUT_CHANNELS)
+        uni = {"u_scale": scale, "u_subpixel": _subpixel(jitter, scale), "u_history_at_samples": int(history_at_samples)}
+        self.run("avgpool_pass", (w, h), res, uni)
+        return self.read(out, "rgba16f", channels)
 
     @_in_own_context
     def conv3x3(self, x, conv: Conv3x3, epilogue: str, residual=None):

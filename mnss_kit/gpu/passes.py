@@ -91,7 +91,7 @@ PASSES = {
         Pass(
             "avgpool_pass", (8, 8, 1), "lr",
             (_s("rectified", 0, "rgba16f"), _s("color", 1, "rgba16f"), _i("aa_input", 0, "rgba16f", array=True)),
-            ("u_scale", "u_subpixel"),
+            ("u_scale", "u_subpixel", "u_history_at_samples"),
         ),
         Pass(
             "conv3x3_pass", (8, 8, 1), "lr_layers",

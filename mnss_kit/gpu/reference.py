@@ -75,12 +75,15 @@ class ReferencePasses:
         weight = inpaint.weight_map(np.asarray(lr_weight, np.float32), as_jitter(jitter), scale, weight_upsample)
         return to_half(inpaint.rectify(upsampled, to_half(warped), weight))
 
-    def avgpool(self, rectified, color, jitter, scale: int):
-        """avgpool_pass -> AA net input (h,w,9) fp16 values: pooled I_R, I_R at this frame's
-        sampled sub-pixels, the colour (``model.config.AA_INPUT_CHANNELS``)."""
+    def avgpool(self, rectified, color, jitter, scale: int, history_at_samples: bool):
+        """avgpool_pass -> AA net input (h,w,6 or 9) fp16 values: pooled I_R, with
+        ``history_at_samples`` I_R at this frame's sampled sub-pixels, the colour
+        (``model.config.aa_input_channels``)."""
         rectified = to_half(rectified)
-        at_samples = subpixel.extract_samples(rectified, as_jitter(jitter), scale)
-        return to_half(np.concatenate([avgpool(rectified, scale), at_samples, to_half(color)], axis=-1))
+        inputs = [avgpool(rectified, scale)]
+        if history_at_samples:
+            inputs.append(subpixel.extract_samples(rectified, as_jitter(jitter), scale))
+        return to_half(np.concatenate([*inputs, to_half(color)], axis=-1))
 
     def conv3x3(self, x, conv: Conv3x3, epilogue: str, residual=None):
         """conv3x3_pass: (h,w,Cin) -> (h,w,Cout) fp16 values.  ``epilogue``: none, relu, or

@@ -82,7 +82,7 @@ def before_npu(passes, stage: GpuStage, frame: dict, state: dict | None, boundar
         conv = stage.weights.inpaint
         lr_weight = passes.inpaint_weights(color, frame["depth"], warped, warped_depth, jitter, s, conv, stage.activation)
     rectified = passes.inpaint_blend(color, warped, lr_weight, jitter, s, stage.weight_upsample, reset)
-    x = passes.avgpool(rectified, color, jitter, s)
+    x = passes.avgpool(rectified, color, jitter, s, stage.weights.aa_history_at_samples)
     layers = stage.weights.aa
     for i, conv in enumerate(layers):
         last = i == len(layers) - 1

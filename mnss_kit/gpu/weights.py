@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UserError
-from ..model.config import AA_INPUT_CHANNELS
+from ..model.config import aa_input_channels
 
 
 def layers_of(channels: int) -> int:
@@ -69,6 +69,11 @@ class GpuWeights:
     inpaint: Conv3x3 | None
     aa: tuple[Conv3x3, ...]
 
+    @property
+    def aa_history_at_samples(self) -> bool:
+        """The AA net reads I_R at the sampled sub-pixels too (``model.config.aa_input_channels``)."""
+        return self.aa[0].in_channels == aa_input_channels(True)
+
     @classmethod
     def from_state_dict(cls, state: dict[str, np.ndarray]) -> "GpuWeights":
         """From an MNSS state dict (numpy values), keys ``inpaint.conv.*`` and ``aa.net.<i>.*``."""
@@ -88,7 +93,7 @@ class GpuWeights:
         for first, second in zip(aa, aa[1:]):
             if first.out_channels != second.in_channels:
                 raise UserError("anti-aliasing net layers do not chain (channel counts differ)")
-        if aa[0].in_channels != AA_INPUT_CHANNELS or aa[-1].out_channels != 3:
-            raise UserError(f"anti-aliasing net must map {AA_INPUT_CHANNELS} channels (pooled history, history at "
-                            "the samples, colour) to 3; a model trained before that input existed needs retraining")
+        if aa[0].in_channels not in (aa_input_channels(False), aa_input_channels(True)) or aa[-1].out_channels != 3:
+            raise UserError("anti-aliasing net must map 6 channels (pooled history, colour) or 9 (pooled history, "
+                            "history at the samples, colour) to 3")
         return cls(inpaint, aa)

@@ -19,9 +19,13 @@ from ..errors import UserError
 
 SCHEMA_VERSION = 1
 TOP_LEVEL_KEYS = ("schema", "model", "train", "data")
-# The anti-aliasing net's input channels, in order: avgpool(I_R), I_R at this frame's sampled
-# sub-pixels, LR colour (each RGB).  The torch model, the GPU passes and the bundle share it.
-AA_INPUT_CHANNELS = 9
+
+
+def aa_input_channels(history_at_samples: bool) -> int:
+    """Input channels of the anti-aliasing net, in order (each RGB): avgpool(I_R), then I_R at this
+    frame's sampled sub-pixels when ``history_at_samples``, then the LR colour.  The torch model,
+    the GPU passes and the bundle follow this layout."""
+    return 9 if history_at_samples else 6
 
 
 @dataclass
@@ -38,6 +42,8 @@ class ModelConfig:
     recon_layers: int = 4  # conv layers, >= 2
     aa_width: int = 16
     aa_layers: int = 3  # conv layers, >= 1
+    # the AA net also sees I_R at the sub-pixels I_AA replaces (not in the paper; docs/architecture.md)
+    aa_history_at_samples: bool = False
     inpaint_activation: Literal["sigmoid", "tanh"] = "sigmoid"  # tanh is clipped to [0, 1]
     # LR weights -> HR weight map: tile replication, or bilinear at the jittered sample positions
     weight_upsample: Literal["nearest", "bilinear"] = "bilinear"

@@ -9,8 +9,8 @@ Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``:
                     sample positions, or nearest) to the HR weight map M_w; I_U = LR samples at
                     their sampled HR pixels, the rest bilinear (``ops.subpixel.jittered_upsample``);
                     rectified history I_R = M_w I_U + (1 - M_w) I_W
-    aa       (gpu)  conv net on [avgpool(I_R), I_R at this frame's sub-pixels, LR colour]
-                    -> I_AA (LR)
+    aa       (gpu)  conv net on [avgpool(I_R), LR colour] -> I_AA (LR); with
+                    ``aa_history_at_samples`` also I_R at this frame's sub-pixels
     insert   (gpu)  I_AA written into I_R at this frame's sub-pixels
     recon    (npu)  conv net, residual on its input, clamped to [0, 1]   -> I_SS
     enhance  (gpu)  optional unsharp kernel on the displayed output
@@ -25,7 +25,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from .config import AA_INPUT_CHANNELS, ModelConfig
+from .config import ModelConfig, aa_input_channels
 from .layers import (
     avgpool,
     extract_samples,
@@ -130,23 +130,26 @@ class Inpaint(nn.Module):
 class AntiAlias(nn.Module):
     """I_AA: the LR frame cleaned with the help of the rectified history (residual on the LR frame).
 
-    Besides the pooled history (the paper's input) the net sees the rectified history at the
-    sub-pixels this frame samples, which I_AA replaces: without it a static view flickers,
-    because each frame swaps accumulated values for fresh aliased samples the net cannot
-    compare them with.
+    The paper's input is the pooled history and the LR frame.  ``history_at_samples`` adds the
+    rectified history at the sub-pixels this frame samples, which I_AA replaces: without it a
+    static view flickers, because each frame swaps accumulated values for fresh aliased samples
+    the net cannot compare them with.
     """
 
     placement = "gpu"
 
-    def __init__(self, scale: int, width: int, layers: int):
+    def __init__(self, scale: int, width: int, layers: int, history_at_samples: bool = False):
         super().__init__()
         self.scale = scale
-        self.net = conv_stack(AA_INPUT_CHANNELS, width, layers, 3)
+        self.history_at_samples = history_at_samples
+        self.net = conv_stack(aa_input_channels(history_at_samples), width, layers, 3)
 
     def forward(self, rectified, color, jitter):
         """I_R (N,3,H,W), LR colour (N,3,h,w), jitter (N,2) -> I_AA (N,3,h,w) in [0, 1]."""
-        at_samples = extract_samples(rectified, jitter, self.scale)
-        x = torch.cat([avgpool(rectified, self.scale), at_samples, color], dim=1)
+        inputs = [avgpool(rectified, self.scale)]
+        if self.history_at_samples:
+            inputs.append(extract_samples(rectified, jitter, self.scale))
+        x = torch.cat([*inputs, color], dim=1)
         return torch.clamp(color + self.net(x), 0.0, 1.0)
 
 
@@ -217,7 +220,7 @@ class MNSS(nn.Module):
         with_history = config.history != "none"
         self.warp = Warp(s) if with_history else None
         self.inpaint = Inpaint(s, config.inpaint_activation, config.weight_upsample, learned=with_history)
-        self.aa = AntiAlias(s, config.aa_width, config.aa_layers)
+        self.aa = AntiAlias(s, config.aa_width, config.aa_layers, config.aa_history_at_samples)
         self.insert = Insert(s)
         self.recon = Reconstruction(s, config.recon_width, config.recon_layers, config.recon_resolution)
         self.enhance = Enhance(config.enhance_beta) if config.enhance else None

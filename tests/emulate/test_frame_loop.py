@@ -15,7 +15,7 @@ from test_frame_loop_npu import recon_files
 from mnss_kit.dataset.format import read_meta
 from mnss_kit.emulate.bundle import BundleSpec
 from mnss_kit.emulate.frame_loop import Emulator
-from mnss_kit.model.config import AA_INPUT_CHANNELS
+from mnss_kit.model.config import aa_input_channels
 from mnss_kit.emulate.npu_graph import read_npu_graph
 from mnss_kit.emulate.sequence import sequence_frames
 from mnss_kit.errors import UserError
@@ -31,7 +31,7 @@ def random_conv(rng, cout, cin) -> Conv3x3:
 
 def make_spec(seed: int = 0, with_history: bool = True) -> BundleSpec:
     rng = np.random.default_rng(seed)
-    weights = GpuWeights(random_conv(rng, 1, 4), (random_conv(rng, 8, AA_INPUT_CHANNELS), random_conv(rng, 3, 8)))
+    weights = GpuWeights(random_conv(rng, 1, 4), (random_conv(rng, 8, aa_input_channels(True)), random_conv(rng, 3, 8)))
     stage = GpuStage(scale=2, with_history=with_history, activation="sigmoid", weight_upsample="bilinear",
                      enhance_beta=None, weights=weights)
     tflite, onnx = recon_files(LR_SIZE[1] * 2, LR_SIZE[0] * 2, seed=seed)

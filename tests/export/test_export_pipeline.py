@@ -50,7 +50,7 @@ def test_failed_export_leaves_nothing(tiny_ckpt, synthetic_dataset, tmp_path, mo
 
 
 def test_placement_with_more_than_recon_on_the_npu_is_refused(tiny_ckpt, tmp_path):
-    # A device whose NPU also takes GATHER_ND (the AA net's sample extraction) can run the AA net.
+    # A device whose NPU also takes GATHER_ND (the tiny model's AA net reads the history at the samples).
     device = yaml.safe_load((CONFIG_DIR / "devices" / "snapdragon_8_gen_1.yaml").read_text())
     device["npu"]["ops"].append("GATHER_ND")
     (tmp_path / "phone.yaml").write_text(yaml.safe_dump(device))

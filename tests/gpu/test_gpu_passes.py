@@ -62,8 +62,10 @@ def test_avgpool_and_conv_stack_match_reference(mesa, ref, scale):
     rng = np.random.default_rng(scale)
     f = random_frame(rng, H, W, scale)
     for jitter in pattern_jitters("mnss", scale):  # the sampled texel differs per sub-pixel
-        pooled = mesa.avgpool(f["history"], f["color"], jitter, scale)
-        assert_float_close(pooled, ref.avgpool(f["history"], f["color"], jitter, scale))
+        for at_samples in (False, True):
+            pooled = mesa.avgpool(f["history"], f["color"], jitter, scale, at_samples)
+            assert pooled.shape[-1] == (9 if at_samples else 6)
+            assert_float_close(pooled, ref.avgpool(f["history"], f["color"], jitter, scale, at_samples))
     # 9 -> 5 (two output layers, one partly used) -> 9 (three input layers) -> 3 with the residual
     convs = [random_conv(rng, 5, 9), random_conv(rng, 9, 5), random_conv(rng, 3, 9)]
     x = pooled

@@ -14,14 +14,14 @@ from gpu_helpers import assert_float_close, pattern_jitters, random_conv
 from mnss_kit.gpu.reference import to_half
 from mnss_kit.gpu.schedule import GpuStage, NpuBoundary, after_npu, before_npu, next_state
 from mnss_kit.gpu.weights import GpuWeights
-from mnss_kit.model.config import AA_INPUT_CHANNELS
+from mnss_kit.model.config import aa_input_channels
 
 GPU_PACKAGE = Path(__file__).resolve().parents[2] / "mnss_kit" / "gpu"
 
 
 def random_stage(rng, scale: int) -> GpuStage:
     state = {}
-    for key, (cout, cin, gain) in {"inpaint.conv": (1, 4, 2.0), "aa.net.0": (8, AA_INPUT_CHANNELS, 0.3), "aa.net.2": (3, 8, 0.3)}.items():
+    for key, (cout, cin, gain) in {"inpaint.conv": (1, 4, 2.0), "aa.net.0": (8, aa_input_channels(True), 0.3), "aa.net.2": (3, 8, 0.3)}.items():
         conv = random_conv(rng, cout, cin, gain)
         state[key + ".weight"], state[key + ".bias"] = conv.weight, conv.bias
     return GpuStage(scale, True, "sigmoid", "bilinear", 0.15, GpuWeights.from_state_dict(state))

@@ -82,8 +82,10 @@ def model_gpu_side(model, frame, state, reset: bool) -> dict:
 
 
 @pytest.mark.parametrize(
-    "overrides", [(), ("model.inpaint_activation=tanh", "model.weight_upsample=nearest"), ("model.scale=3",)],
-    ids=["x2", "x2-tanh-nearest", "x3"],
+    "overrides",
+    [(), ("model.inpaint_activation=tanh", "model.weight_upsample=nearest"), ("model.scale=3",),
+     ("model.aa_history_at_samples=false",), ("model.scale=3", "model.aa_history_at_samples=false")],
+    ids=["x2", "x2-tanh-nearest", "x3", "x2-paper-aa-input", "x3-paper-aa-input"],
 )
 @pytest.mark.parametrize("reset", [False, True], ids=["history", "reset"])
 def test_reference_gpu_stage_matches_model(overrides, reset):

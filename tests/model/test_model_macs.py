@@ -17,7 +17,7 @@ def hand_count(scale: int, recon_resolution: str) -> dict[str, float]:
     recon_per_own_pixel = 9 * (recon_io * 4 + 4 * recon_io)
     return {
         "inpaint": 9 * 4 * 1 * lr,
-        "aa": 9 * (9 * 5 + 5 * 3) * lr,  # 9 inputs: pooled history, history at the samples, colour
+        "aa": 9 * (6 * 5 + 5 * 3) * lr,
         "recon": recon_per_own_pixel * (lr if recon_resolution == "lr" else 1),
     }
 
@@ -34,9 +34,15 @@ def test_conv_macs_match_hand_count(scale, recon_resolution):
 
 
 def test_x2_lr_tiny_numbers():
-    """The same count written out: inpaint 9*4/4 = 9, aa 9*60/4 = 135, recon 9*(12*4+4*12)/4 = 216."""
+    """The same count written out: inpaint 9*4/4 = 9, aa 9*45/4 = 101.25, recon 9*(12*4+4*12)/4 = 216."""
     report = count_macs(build_model(ModelConfig(**TINY)))
-    assert [report.stages[s].conv for s in ("inpaint", "aa", "recon")] == [9.0, 135.0, 216.0]
+    assert [report.stages[s].conv for s in ("inpaint", "aa", "recon")] == [9.0, 101.25, 216.0]
+
+
+def test_history_at_samples_adds_three_aa_inputs():
+    """aa 9 * (9 * 5 + 5 * 3) / 4 = 135: the extraction itself is a copy, no MACs."""
+    report = count_macs(build_model(ModelConfig(aa_history_at_samples=True, **TINY)))
+    assert report.stages["aa"].conv == 135.0
 
 
 def test_count_does_not_depend_on_frame_size():

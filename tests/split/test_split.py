@@ -16,10 +16,8 @@ from mnss_kit.split.estimate import estimate_stage
 from mnss_kit.split.plan import PLACEMENTS, plan_flow, split_model
 from mnss_kit.split.report import format_text
 
-# The shipped profiles' list plus GATHER_ND (the AA net's sample extraction), so the AA stage is
-# NPU-eligible here and the planner has a choice to make.
 NPU_OPS = ["CONV_2D", "DEPTHWISE_CONV_2D", "ADD", "MUL", "CONCATENATION", "LOGISTIC", "TANH", "AVERAGE_POOL_2D",
-           "RESIZE_BILINEAR", "DEPTH_TO_SPACE", "SPACE_TO_DEPTH", "PAD", "QUANTIZE", "DEQUANTIZE", "GATHER_ND"]
+           "RESIZE_BILINEAR", "DEPTH_TO_SPACE", "SPACE_TO_DEPTH", "PAD", "QUANTIZE", "DEQUANTIZE"]
 PROFILE = {
     "schema": 1, "name": "test_phone", "soc": "Test SoC",
     "gpu": {"name": "GPU", "fp16_gflops": 1000.0, "achievable_fraction": 0.5},

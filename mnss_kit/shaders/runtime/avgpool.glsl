@@ -1,6 +1,8 @@
-// Anti-aliasing net input (MNSS): [avgpool(I_R) to LR, I_R at this frame's sampled sub-pixels,
-// LR colour], nine channels in three layers of four: (pool.rgb, sample.r), (sample.gb, color.rg),
-// (color.b, 0, 0, 0).  Binding-free; mirrors ops.resample.avgpool and ops.subpixel.extract_samples.
+// Anti-aliasing net input (MNSS): [avgpool(I_R) to LR, LR colour], six channels in two layers of
+// four: (pool.rgb, color.r), (color.gb, 0, 0).  With the history at the samples (not in the
+// paper), [avgpool(I_R), I_R at this frame's sampled sub-pixels, LR colour], nine channels in three
+// layers: (pool.rgb, sample.r), (sample.gb, color.rg), (color.b, 0, 0, 0).  Binding-free; mirrors
+// ops.resample.avgpool and ops.subpixel.extract_samples.
 
 #include "common.glsl"
 
