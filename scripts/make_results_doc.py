@@ -52,13 +52,22 @@ def markdown(summary: dict, source: Path, chart_name: str) -> str:
     beats_taau = all(methods["model"][k] > methods["taau"][k] for k in ("psnr", "ssim", "if_ssim"))
     lines += ["", f"Model minus bicubic: {gain:+.2f} dB PSNR (target: at least +3 dB: "
               f"{'met' if gain >= 3 else 'not met'}). Model beats TAAU on PSNR, SSIM and IF-SSIM: "
-              f"{'yes' if beats_taau else 'no'}.", "", "Per sequence (PSNR, dB):", "",
-              "| sequence | cuts | " + " | ".join(methods) + " |", "|---|---|" + "---|" * len(methods)]
-    for seq, info in summary["sequences"].items():
-        row = " | ".join(f"{info['methods'][m]['psnr']:.2f}" for m in methods)
-        lines.append(f"| {seq} | {', '.join(map(str, info.get('cuts', []))) or '-'} | {row} |")
+              f"{'yes' if beats_taau else 'no'}."]
+    lines += per_sequence(summary, "psnr", "PSNR, dB", "{:.2f}")
+    lines += per_sequence(summary, "if_ssim", "IF-SSIM", "{:.4f}")
     lines += ["", f"![PSNR against cost]({chart_name})", ""]
     return "\n".join(lines)
+
+
+def per_sequence(summary: dict, key: str, title: str, fmt: str) -> list[str]:
+    """Markdown lines of a per-sequence table of ``key`` for every method."""
+    methods = list(summary["methods"])
+    lines = ["", f"Per sequence ({title}):", "", "| sequence | cuts | " + " | ".join(methods) + " |",
+             "|---|---|" + "---|" * len(methods)]
+    for seq, info in summary["sequences"].items():
+        row = " | ".join(fmt.format(info["methods"][m][key]) for m in methods)
+        lines.append(f"| {seq} | {', '.join(map(str, info.get('cuts', []))) or '-'} | {row} |")
+    return lines
 
 
 def main() -> None:
