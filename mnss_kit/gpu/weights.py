@@ -93,7 +93,8 @@ class GpuWeights:
         for first, second in zip(aa, aa[1:]):
             if first.out_channels != second.in_channels:
                 raise UserError("anti-aliasing net layers do not chain (channel counts differ)")
-        if aa[0].in_channels not in (aa_input_channels(False), aa_input_channels(True)) or aa[-1].out_channels != 3:
-            raise UserError("anti-aliasing net must map 6 channels (pooled history, colour) or 9 (pooled history, "
-                            "history at the samples, colour) to 3")
+        paper, with_samples = aa_input_channels(False), aa_input_channels(True)
+        if aa[0].in_channels not in (paper, with_samples) or aa[-1].out_channels != 3:
+            raise UserError(f"anti-aliasing net must map {paper} channels (pooled history, colour) or {with_samples} "
+                            "(pooled history, history at the samples, colour) to 3")
         return cls(inpaint, aa)

@@ -71,9 +71,6 @@ def test_flicker_term_is_the_change_of_the_error_along_the_motion():
     moved = torch.roll(error, 2, dims=3)
     motion = torch.zeros(1, 2, 12, 16)
     motion[:, 0] = -1.0  # points from the current frame to where the content was
-    inner = (slice(None), slice(None), slice(None), slice(4, -4))
-    change = error - torch.roll(moved, -2, dims=3)
-    assert float(change[inner].abs().max()) == 0.0
     aligned = loss.flicker(moved, error, motion, None)
     assert float(aligned) < 0.2 * float(loss.flicker(moved, error, still, None))
 
