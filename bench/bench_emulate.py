@@ -153,7 +153,7 @@ def main() -> int:
         emulator = Emulator(bundle, args.profile, "numpy", "numpy")
         frames = [f for _, f, _ in sequence_frames(seq, read_meta(seq), args.frames)]
         timings, cpu, gpu, last = run_frames(emulator, frames)
-        ops = op_profile(emulator, last.tensors[emulator.spec.npu_input])
+        ops = op_profile(emulator, last.tensors[emulator.spec.boundary("gpu->npu")["tensor"]])
         n_ops = len(emulator.spec.graph.ops)
 
     medians = {k: statistics.median(s[k] for s in timings) for k in timings[0]}
@@ -184,8 +184,8 @@ def main() -> int:
         "note": "shared machine: compare numbers from one run only",
     }
     atomic_write_json(args.out, result)
-    print(f"median {medians['total']:.3f} s per frame (GPU before {medians['gpu_before_npu']:.3f}, NPU {medians['npu']:.3f}, "
-          f"GPU after {medians['gpu_after_npu']:.3f}), CPU {result['median_cpu_seconds_total']:.3f} s, "
+    print(f"median {medians['total']:.3f} s per frame (GPU {medians['gpu']:.3f}, NPU {medians['npu']:.3f}), "
+          f"CPU {result['median_cpu_seconds_total']:.3f} s, "
           f"load {load_start[0]:.1f} -> {result['load_average_end'][0]:.1f}; wrote {args.out}")
     return 0
 

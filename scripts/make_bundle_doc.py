@@ -123,8 +123,8 @@ def manifest_block(m: dict) -> str:
 
 
 def resources_block() -> str:
-    from mnss_kit.export.gpu_plan import resources
-    from mnss_kit.gpu.schedule import GpuStage
+    from mnss_kit.model.mnss.gpu_plan import resources
+    from mnss_kit.model.mnss.gpu_stage import GpuStage
     from mnss_kit.model.config import load_model_config
     from mnss_kit.model.families import build_model
 

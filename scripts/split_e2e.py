@@ -217,7 +217,7 @@ def _environment(emulator) -> dict:
     from mnss_kit.emulate.npu import get_npu_profile
 
     renderer = "unknown"
-    ctx = getattr(emulator.passes, "ctx", None) or getattr(emulator.passes, "context", None)
+    ctx = getattr(emulator.runner.passes, "ctx", None) or getattr(emulator.runner.passes, "context", None)
     if ctx is not None:
         renderer = f"{ctx.info.get('GL_RENDERER', '?')}, {ctx.info.get('GL_VERSION', '?')}"
     profile = get_npu_profile(emulator.npu_profile)

@@ -81,3 +81,42 @@ def test_metrics_import_no_stage():
         for mod in imported_modules(path):
             target = stage_of(mod)
             assert target is None or target in SHARED, f"{path.relative_to(PKG)} imports {mod}"
+
+
+def _family_stage_names() -> dict[str, set[str]]:
+    """Stage names of every family, from a model of each family's default config."""
+    from mnss_kit.model.families import FAMILIES
+
+    names = {}
+    for name, family in FAMILIES.items():
+        model = family.build(family.config())
+        names[name] = {stage for stage, _, _ in model.stages()}
+    return names
+
+
+def _stage_mentions(path: Path, stages: set[str]) -> list[str]:
+    """String constants equal to a stage name, and attribute reads ``model.<stage>``, in ``path``."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in stages:
+            found.append(f"line {node.lineno}: '{node.value}'")
+        elif isinstance(node, ast.Attribute) and node.attr in stages and isinstance(node.value, ast.Name) and node.value.id == "model":
+            found.append(f"line {node.lineno}: .{node.attr}")
+    return found
+
+
+def test_no_module_outside_a_family_folder_names_its_stages():
+    """Every stage after model/ asks the family record (model.families.FAMILIES) instead.  The GPU
+    pass library (gpu/) may use its passes' binding names, which are shader interface names."""
+    from mnss_kit.gpu.passes import PASSES
+
+    bindings = {b.name for p in PASSES.values() for b in p.bindings}
+    for family, stages in _family_stage_names().items():
+        own = PKG / "model" / family
+        for path in sorted(PKG.rglob("*.py")):
+            if own in path.parents:
+                continue
+            names = stages - bindings if path.parent == PKG / "gpu" else stages
+            mentions = _stage_mentions(path, names)
+            assert not mentions, f"{path.relative_to(PKG)} names {family} stages: {'; '.join(mentions)}"

@@ -18,7 +18,7 @@ def bundle_mesa_passes(spec: BundleSpec):
     """A ``MesaPasses`` compiling the bundle's shader files (the package's when the bundle was built in memory)."""
     from ..gpu.mesa import MesaPasses
 
-    if spec.manifest is None:
+    if "gpu" not in spec.manifest:  # assembled in memory: the package's shaders
         return MesaPasses()
     root = Path(spec.source)
     return MesaPasses(sources={p["name"]: root / p["file"] for p in spec.manifest["gpu"]["passes"]})

@@ -1,15 +1,16 @@
-"""The desktop emulator's frame loop: GPU passes, NPU graph, GPU passes, history carried to the next frame.
+"""The desktop emulator's frame loop: the bundle's schedule, step by step, recurrent resources kept.
 
     emulator = Emulator("bundle/", npu_profile="tflite-ref", npu_backend="numpy", gpu_backend="numpy")
     outputs = emulator.run_frame({"color": ..., "depth": ..., "motion": ..., "jitter": ..., "reset": False})
     metrics = emulator.run_sequence("data/corridor_01", out_dir="emulated/")
 
-A frame is numpy: ``color`` (h, w, 3) display values, ``depth`` (h, w, 1) canonical depth,
-``motion`` (h, w, 2) LR pixels, ``jitter`` (2,) LR pixels, ``reset`` bool (camera cut).  The GPU
-stage is ``mnss_kit.gpu.schedule`` on the numpy reference passes (``gpu.reference``, fp16
-storage rounding, run through the bit-identical :mod:`.fast_gpu`) or on Mesa (the bundle's
-shader files, :mod:`.bundle_shaders`); the NPU stage is :mod:`.npu`.  Nothing but the bundle is
-read: no checkpoint, no torch.
+A frame is numpy: every ``input`` resource of the manifest (``(h, w, C)`` float32 at its size;
+for MNSS ``color`` display values, ``depth`` canonical depth, ``motion`` LR pixels), ``jitter``
+(2,) LR pixels and ``reset`` bool (camera cut).  The schedule runs through
+:class:`mnss_kit.gpu.interpret.ScheduleRunner`: GPU steps on the numpy reference passes
+(``gpu.reference``, fp16 storage rounding, run through the bit-identical :mod:`.fast_gpu`) or on
+Mesa (the bundle's shader files, :mod:`.bundle_shaders`), NPU steps on :mod:`.npu`.  Nothing but
+the bundle is read: no checkpoint, no torch.
 """
 
 from __future__ import annotations
@@ -20,25 +21,24 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UserError
-from ..gpu import schedule
+from ..gpu.interpret import ScheduleRunner
 from .bundle import BundleSpec, read_bundle
 from .dump import TensorEntry, entry_for
 from .npu import open_npu
 
 GPU_BACKENDS = ("numpy", "mesa")
-FRAME_KEYS = {"color": 3, "depth": 1, "motion": 2}  # LR inputs and their channel counts
-GPU_INTERMEDIATES = ("warped", "lr_weight", "rectified", "aa")  # before_npu results, in execution order
 
 
 @dataclass
 class FrameResult:
-    """One emulated frame.  ``display`` (H, W, 3) uint8 and ``output`` (H, W, 3) float32 (the history,
-    fp16 values); ``tensors`` every named tensor in execution order (filled with ``keep_all``) and
-    ``entries`` their dtype, shape and quantization; ``seconds`` per stage."""
+    """One emulated frame.  ``display`` (H, W, 3) uint8 (the ``output`` resource); ``npu_output`` what
+    the NPU returned to the GPU; ``state`` the ``state`` resources after the frame (for MNSS
+    ``history`` (H, W, 3), fp16 values); ``tensors`` every named tensor in execution order (filled
+    with ``keep_all``) and ``entries`` their dtype, shape and quantization; ``seconds`` per stage."""
 
     display: np.ndarray
-    output: np.ndarray
     npu_output: np.ndarray
+    state: dict[str, np.ndarray]
     tensors: dict[str, np.ndarray]
     entries: dict[str, TensorEntry]
     seconds: dict[str, float]
@@ -51,28 +51,36 @@ class Emulator:
         self.spec: BundleSpec = bundle if isinstance(bundle, BundleSpec) else read_bundle(bundle)
         self.npu_profile, self.npu_backend, self.gpu_backend = npu_profile, npu_backend, gpu_backend
         self.npu = open_npu(self.spec.tflite, npu_profile, npu_backend, self.spec.onnx, graph=self.spec.graph)
-        self.passes = _gpu_passes(gpu_backend, self.spec)
-        self.state: dict | None = None
+        m = self.spec.manifest
+        self.runner = ScheduleRunner(m["resources"], m["schedule"], self.spec.weights, _gpu_passes(gpu_backend, self.spec),
+                                     self._run_npu, self.spec.profile, self.spec.scale)
+        self._keep_all, self._npu_tensors, self._npu_seconds = False, {}, 0.0
 
     def reset(self) -> None:
         """Forget the history: the next frame starts a sequence."""
-        self.state = None
+        self.runner.reset()
+
+    def _run_npu(self, step: dict, feeds: dict) -> dict:
+        t0 = time.perf_counter()
+        self._npu_tensors = self.npu.run(feeds, keep_all=self._keep_all)
+        self._npu_seconds += time.perf_counter() - t0
+        return self._npu_tensors
 
     def run_frame(self, inputs: dict, keep_all: bool = False) -> FrameResult:
-        """One frame: LR inputs (module docstring) -> display and output; updates the recurrent state."""
+        """One frame: inputs (module docstring) -> display and state; updates the recurrent state."""
         frame = self.check_frame(inputs)
-        spec = self.spec
+        self._keep_all, self._npu_seconds = keep_all, 0.0
         t0 = time.perf_counter()
-        gpu = schedule.before_npu(self.passes, spec.stage, frame, self.state, spec.boundary)
-        t1 = time.perf_counter()
-        npu = self.npu.run({spec.npu_input: gpu["npu_input"]}, keep_all=keep_all)
-        t2 = time.perf_counter()
-        history, display = schedule.after_npu(self.passes, spec.stage, npu[spec.npu_output], spec.boundary)
-        t3 = time.perf_counter()
-        self.state = schedule.next_state(frame, history)
-        seconds = {"gpu_before_npu": t1 - t0, "npu": t2 - t1, "gpu_after_npu": t3 - t2, "total": t3 - t0}
-        tensors, entries = ({}, {}) if not keep_all else self._named(frame, gpu, npu, history, display)
-        return FrameResult(display, history, npu[spec.npu_output], tensors, entries, seconds)
+        steps = self.runner.run_frame({k: frame[k] for k in self.runner.inputs}, frame["jitter"], frame["reset"])
+        total = time.perf_counter() - t0
+        values = self.runner.values
+        spec = self.spec
+        npu_output = values[spec.boundary("npu->gpu")["buffer"]["resource"]]
+        display = values[spec.resources("output")[0]["name"]]
+        state = {r["name"]: values.get(r["name"]) for r in spec.resources("state")}
+        seconds = {"gpu": total - self._npu_seconds, "npu": self._npu_seconds, "total": total}
+        tensors, entries = ({}, {}) if not keep_all else self._named(frame, steps)
+        return FrameResult(display, npu_output, state, tensors, entries, seconds)
 
     def run_sequence(self, data_dir, out_dir=None, dump: bool = False, frames: int | None = None,
                      overwrite: bool = False, progress: bool = False) -> dict:
@@ -93,10 +101,10 @@ class Emulator:
         return report
 
     def check_frame(self, inputs: dict) -> dict:
-        """The frame with float32 arrays of the bundle's LR size; ``UserError`` naming a bad key."""
-        w, h = self.spec.lr_size
+        """The frame with float32 arrays of the bundle's sizes; ``UserError`` naming a bad key."""
         frame = {}
-        for key, channels in FRAME_KEYS.items():
+        for resource in self.spec.resources("input"):
+            key, (w, h), channels = resource["name"], resource["size"], resource["channels"]
             if key not in inputs:
                 raise UserError(f"frame input '{key}' is missing")
             x = np.asarray(inputs[key], dtype=np.float32)
@@ -112,30 +120,35 @@ class Emulator:
         frame["reset"] = bool(inputs.get("reset", False))
         return frame
 
-    def _named(self, frame, gpu, npu, history, display) -> tuple[dict, dict]:
-        """Every tensor of the frame in execution order, with its dump entry."""
+    def _named(self, frame: dict, steps) -> tuple[dict, dict]:
+        """Every tensor of the frame in execution order (inputs as their textures hold them, what
+        each GPU step wrote, every NPU tensor), with its dump entry."""
         tensors, entries = {}, {}
+        formats = {r["name"]: r.get("format") for r in self.spec.manifest["resources"]}
 
         def put(name, array, stage, qparams=None):
-            if name in tensors:
+            if name in tensors and stage != "gpu":
                 raise UserError(f"tensor name '{name}' is used by both the GPU stage and {self.spec.source}; rename it")
             tensors[name] = array
             entries[name] = entry_for(name, array, qparams, stage)
 
-        put("color", frame["color"].astype(np.float16), "input")  # as the rgba16f input texture holds it
-        for key in ("depth", "motion"):
-            put(key, frame[key], "input")
-        for key in GPU_INTERMEDIATES:
-            if gpu.get(key) is not None:
-                put(key, gpu[key], "gpu")
+        for key in self.runner.inputs:
+            value = frame[key].astype(np.float16) if formats[key] in HALF_FORMATS else frame[key]
+            put(key, value, "input")
         graph = self.spec.graph
-        for name in graph.execution_order():
-            if name in npu:
-                t = graph.tensors[name]
-                put(name, npu[name], "npu", t.qparams() if t.quantized and t.scale.size == 1 else None)
-        put("history", history, "gpu")
-        put("display", display, "gpu")
+        for result in steps:
+            if result.step["kind"] == "gpu":
+                for name, array in result.written.items():
+                    put(name, array, "gpu")
+                continue
+            for name in graph.execution_order():
+                if name in self._npu_tensors:
+                    t = graph.tensors[name]
+                    put(name, self._npu_tensors[name], "npu", t.qparams() if t.quantized and t.scale.size == 1 else None)
         return tensors, entries
+
+
+HALF_FORMATS = ("rgba16f", "rg16f", "r16f")  # input textures that round to half float on upload
 
 
 def _gpu_passes(backend: str, spec: BundleSpec):

@@ -25,7 +25,7 @@ from ..dataset.format import SequenceMeta, find_sequences, read_buffer, read_met
 from ..errors import UserError
 from ..fileio import atomic_directory, atomic_write_bytes, atomic_write_json
 from .dump import DumpWriter
-from .frame_loop import FRAME_KEYS, Emulator
+from .frame_loop import Emulator
 
 log = logging.getLogger(__name__)
 
@@ -36,11 +36,22 @@ def psnr_db(output: np.ndarray, reference: np.ndarray, peak: float = 1.0) -> flo
     return None if mse == 0.0 else 10.0 * math.log10(peak * peak / mse)
 
 
-def sequence_frames(seq_dir: Path, meta: SequenceMeta, frames: int | None) -> Iterator[tuple[int, dict, np.ndarray | None]]:
-    """``(index, frame, reference or None)`` for the first ``frames`` frames; the first one is a reset."""
+def dataset_buffer(input_name: str) -> tuple[str, str]:
+    """The dataset buffer behind a bundle input resource: ``hr_<name>`` is HR ``<name>``, others are LR."""
+    return ("hr", input_name[3:]) if input_name.startswith("hr_") else ("lr", input_name)
+
+
+def sequence_frames(seq_dir: Path, meta: SequenceMeta, frames: int | None,
+                    inputs: list[str]) -> Iterator[tuple[int, dict, np.ndarray | None]]:
+    """``(index, frame, reference or None)`` for the first ``frames`` frames, with the bundle
+    ``inputs``; the first one is a reset."""
     has_reference = "reference" in meta.buffers.get("hr", [])
+    for name in inputs:
+        res, buffer = dataset_buffer(name)
+        if buffer not in meta.buffers.get(res, []):
+            raise UserError(f"{seq_dir}: the bundle reads buffer {res}/{buffer}, which this sequence lacks (meta.json buffers.{res})")
     for i, fm in enumerate(meta.frames[:frames] if frames else meta.frames):
-        frame = {key: read_buffer(seq_dir, meta, "lr", key, fm.index) for key in FRAME_KEYS}
+        frame = {key: read_buffer(seq_dir, meta, *dataset_buffer(key), fm.index) for key in inputs}
         frame["jitter"] = np.asarray(fm.jitter, np.float32)
         frame["reset"] = bool(fm.reset) or i == 0
         reference = read_buffer(seq_dir, meta, "hr", "reference", fm.index) if has_reference else None
@@ -48,7 +59,7 @@ def sequence_frames(seq_dir: Path, meta: SequenceMeta, frames: int | None) -> It
 
 
 def check_data(emulator: Emulator, seq_dir: Path, meta: SequenceMeta) -> None:
-    scale = emulator.spec.stage.scale
+    scale = emulator.spec.scale
     if meta.scale != scale:
         raise UserError(f"{seq_dir}: scale {meta.scale}, the bundle is x{scale}")
     if tuple(meta.lr_size) != tuple(emulator.spec.lr_size):
@@ -83,7 +94,7 @@ def run_sequence(emulator: Emulator, seq_dir: Path, out_dir: Path | None, dump: 
                                                "gpu_backend": emulator.gpu_backend})
     rows = []
     total = min(frames or meta.frame_count, meta.frame_count)
-    items = sequence_frames(seq_dir, meta, frames)
+    items = sequence_frames(seq_dir, meta, frames, emulator.runner.inputs)
     if progress:
         from tqdm import tqdm
 

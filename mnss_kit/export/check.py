@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import UserError
 from .boundary import texture_remaps
-from .gpu_plan import WEIGHTS_PREFIX
+from ..gpu.plan import WEIGHTS_PREFIX
 from .manifest import bundle_files, read_manifest, schema_problems, sha256_bytes, sha256_file
 from .npu_files import NpuModel, nchw_to_nhwc, read_onnx, read_tflite
 

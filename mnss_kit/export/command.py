@@ -5,10 +5,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..model.families import placement_modes
+
 HELP = "write a deployment bundle: manifest.json, npu.tflite, npu_qdq.onnx, GPU shaders + weights, golden frames"
 PROFILES = ("tflite_reference", "tflite_optimized", "xnnpack")  # golden.PROFILE_RESOLVERS
 METHODS = ("minmax", "percentile", "entropy", "mse")  # quantize.command.METHODS
-PLACEMENTS = ("default", "all-gpu", "aa-on-npu", "auto")  # split.plan.PLACEMENTS
 DEFAULT_RESOLUTION = "1280x720"
 DEFAULT_GOLDEN_FRAMES = 3
 
@@ -22,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resolution", metavar="WxH",
                         help=f"output (HR) size the bundle runs at (default {DEFAULT_RESOLUTION}; a quantize directory fixes it)")
     parser.add_argument("--device", metavar="NAME", help="device profile (configs/devices): records the GPU/NPU placement and estimates")
-    parser.add_argument("--placement", choices=PLACEMENTS, default="default", help="placement mode for --device (default: the model's split)")
+    parser.add_argument("--placement", choices=placement_modes(), default="default", help="placement mode for --device (default: the model's split)")
     parser.add_argument("--data", metavar="DIR",
                         help="dataset for calibration, and for golden frames when its LR size matches (default: render)")
     parser.add_argument("--method", choices=METHODS, default="minmax", help="activation range method when quantizing (default: minmax)")

@@ -1,12 +1,14 @@
 """Golden frames: a few consecutive frames through the desktop reference, for an on-device self-test.
 
-The GPU passes run as their numpy reference (:class:`mnss_kit.gpu.reference.ReferencePasses`,
-the emulator's GPU stage, fp16 storage rounding included) and the NPU graph in LiteRT with the
-kernel set of a named numerics profile, so every stored value is reproducible on a desk.  Per
-frame the bundle keeps the inputs exactly as the input textures hold them and the tensors a
-phone can read back: the packed NPU input, the NPU output and the display codes.
+The bundle's schedule runs through :class:`mnss_kit.gpu.interpret.ScheduleRunner` on the numpy
+reference passes (:class:`mnss_kit.gpu.reference.ReferencePasses`, the emulator's GPU stage, fp16
+storage rounding included) and the NPU graph in LiteRT with the kernel set of a named numerics
+profile, so every stored value is reproducible on a desk.  Per frame the bundle keeps every
+``input`` resource exactly as its texture holds it, and the tensors a phone can read back: every
+``boundary`` buffer (what crosses to and from the NPU) and the ``output`` resource.
 
-Arrays are raw little-endian files, C order, shape and dtype in the manifest:
+Arrays are raw little-endian files, C order, shape and dtype in the manifest; the dtype follows
+the resource's format (:data:`FORMAT_DTYPES`).  For the MNSS family::
 
     color       (h, w, 3) float16   the rgba16f colour texture's rgb
     depth       (h, w, 1) float32   r32f
@@ -23,13 +25,15 @@ from pathlib import Path
 
 import numpy as np
 
+from ..gpu.interpret import ScheduleRunner
 from ..gpu.reference import ReferencePasses
-from ..gpu.schedule import GpuStage, NpuBoundary, after_npu, before_npu, next_state
 from ..ops.jitter import subpixel_index
 
 # numerics profile -> LiteRT op resolver running those kernels (quantize.runtime.RESOLVERS)
 PROFILE_RESOLVERS = {"tflite_reference": "reference", "tflite_optimized": "optimized", "xnnpack": "xnnpack"}
-ARRAY_DTYPES = {"color": "float16", "depth": "float32", "motion": "float32", "npu_input": "int8", "npu_output": "int8", "display": "uint8"}
+# texture format (or boundary buffer) -> dtype of the golden array
+FORMAT_DTYPES = {"rgba16f": "float16", "rg16f": "float16", "r16f": "float16", "rgba32f": "float32", "rg32f": "float32",
+                 "r32f": "float32", "rgba8": "uint8", "boundary": "int8"}
 TOLERANCES = {
     "npu_input_lsb": 1,
     "npu_output_lsb": 1,
@@ -49,47 +53,50 @@ class GoldenFrame:
     arrays: dict[str, np.ndarray]
 
 
-def frame_from_torch(frame: dict) -> dict:
-    """A loader frame (batched NCHW torch tensors) -> the numpy frame ``gpu.schedule`` takes."""
+def frame_from_torch(frame: dict, inputs: list[str]) -> dict:
+    """A loader frame (batched NCHW torch tensors) -> the numpy frame the schedule takes (``inputs``)."""
 
     def hwc(key):
         return np.ascontiguousarray(frame[key][0].permute(1, 2, 0).numpy(), dtype=np.float32)
 
     reset = frame.get("reset")
-    return {
-        "color": hwc("color"),
-        "depth": hwc("depth"),
-        "motion": hwc("motion"),
-        "jitter": np.asarray(frame["jitter"][0].numpy(), np.float32),
-        "reset": bool(reset is not None and float(reset[0]) > 0.5),
-    }
+    out = {key: hwc(key) for key in inputs}
+    out["jitter"] = np.asarray(frame["jitter"][0].numpy(), np.float32)
+    out["reset"] = bool(reset is not None and float(reset[0]) > 0.5)
+    return out
 
 
-def run_golden(stage: GpuStage, frames: list[dict], tflite: bytes, boundary: NpuBoundary) -> list[GoldenFrame]:
-    """Run ``frames`` (numpy frames, first one treated as a reset) through the reference pipeline."""
+def golden_arrays(resources: list[dict]) -> dict[str, str]:
+    """``{resource name: dtype}`` of what a golden frame stores: inputs, boundary buffers, the output."""
+    out = {r["name"]: FORMAT_DTYPES[r["format"]] for r in resources if r["role"] == "input"}
+    out.update({r["name"]: FORMAT_DTYPES["boundary"] for r in resources if r["role"] == "boundary"})
+    out.update({r["name"]: FORMAT_DTYPES[r["format"]] for r in resources if r["role"] == "output"})
+    return out
+
+
+def run_golden(plan: dict, frames: list[dict], tflite: bytes, profile: str, scale: int) -> list[GoldenFrame]:
+    """Run ``frames`` (numpy frames, first one treated as a reset) through the bundle ``plan``'s schedule."""
     from ..quantize.runtime import TfliteRunner
 
-    resolver = PROFILE_RESOLVERS.get(boundary.profile)
+    resolver = PROFILE_RESOLVERS.get(profile)
     if resolver is None:
-        raise ValueError(f"golden frames need a LiteRT profile ({', '.join(PROFILE_RESOLVERS)}), got {boundary.profile!r}")
-    runner = TfliteRunner(tflite, resolver)
-    passes = ReferencePasses()
-    state, out = None, []
+        raise ValueError(f"golden frames need a LiteRT profile ({', '.join(PROFILE_RESOLVERS)}), got {profile!r}")
+    litert = TfliteRunner(tflite, resolver)
+
+    def npu(step, feeds):
+        (name, array), = feeds.items()
+        return {next(iter(step["outputs"])): next(iter(litert.run([array]).values()))}
+
+    runner = ScheduleRunner(plan["resources"], plan["schedule"], dict(plan["weights"]), ReferencePasses(), npu, profile, scale)
+    kept = golden_arrays(plan["resources"])
+    out = []
     for t, frame in enumerate(frames):
-        frame = dict(frame, reset=frame["reset"] or t == 0)
-        npu_input = before_npu(passes, stage, frame, state, boundary)["npu_input"]
-        npu_output = next(iter(runner.run([npu_input]).values()))
-        history, display = after_npu(passes, stage, npu_output, boundary)
-        state = next_state(frame, history)
-        arrays = {
-            "color": frame["color"].astype(np.float16),
-            "depth": frame["depth"],
-            "motion": frame["motion"],
-            "npu_input": npu_input,
-            "npu_output": npu_output,
-            "display": display,
-        }
-        out.append(GoldenFrame(np.asarray(frame["jitter"], np.float32), frame["reset"], {k: np.ascontiguousarray(v, ARRAY_DTYPES[k]) for k, v in arrays.items()}))
+        reset = frame["reset"] or t == 0
+        inputs = {k: frame[k] for k in runner.inputs}
+        runner.run_frame(inputs, frame["jitter"], reset)
+        values = {**runner.values, **inputs}  # the inputs as filled (end_of_frame may swap their resources)
+        arrays = {k: np.ascontiguousarray(values[k], dtype) for k, dtype in kept.items()}
+        out.append(GoldenFrame(np.asarray(frame["jitter"], np.float32), reset, arrays))
     return out
 
 
@@ -104,7 +111,7 @@ def write_golden(root: Path, frames: list[GoldenFrame], scale: int, jitter_table
             name = (folder / f"{key}.bin").as_posix()
             data = array.astype(array.dtype.newbyteorder("<"), copy=False)
             (root / name).write_bytes(data.tobytes())
-            arrays[key] = {"file": name, "dtype": ARRAY_DTYPES[key], "shape": list(array.shape)}
+            arrays[key] = {"file": name, "dtype": array.dtype.name, "shape": list(array.shape)}
         sub = [int(v) for v in subpixel_index(frame.jitter, scale)]
         entries.append({
             "index": t,

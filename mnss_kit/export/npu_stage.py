@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
+from ..model.families import npu_module
 
 log = logging.getLogger(__name__)
 QUANTIZED_FILES = ("npu.tflite", "npu_qdq.onnx")
@@ -71,7 +72,7 @@ def retarget(graph, module, hr_size: tuple[int, int]):
 
 
 def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], method: str, progress: bool) -> NpuArtifacts:
-    """Quantize ``model.recon`` (defaults of ``mnss-kit quantize``) and write its files for ``hr_size``.
+    """Quantize the model's NPU stage (defaults of ``mnss-kit quantize``) and write its files for ``hr_size``.
 
     ``data``: dataset directory for calibration; None renders the quantize stage's default
     calibration data.
@@ -86,10 +87,10 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
     with tempfile.TemporaryDirectory(prefix="mnss-export-calibration-") as tmp:
         root = Path(data) if data else render_calibration_data(Path(tmp), progress)
         sequences = quantize_command.open_data(root, model.scale)
-        log.info("recording %d reconstruction-net inputs from recurrent runs on %s", CALIBRATION_SAMPLES, root)
+        log.info("recording %d NPU-stage inputs from recurrent runs on %s", CALIBRATION_SAMPLES, root)
         samples = quantize_command.calibration_samples(model, sequences, CALIBRATION_SAMPLES, progress=progress)
-    art = quantize_module(model.recon, samples, QuantizeOptions(method=method), name=name)
-    graph = retarget(art.graph, model.recon, hr_size)
+    art = quantize_module(npu_module(model), samples, QuantizeOptions(method=method), name=name)
+    graph = retarget(art.graph, npu_module(model), hr_size)
     calibrated_at = list(art.graph.tensors[art.graph.inputs[0]].shape[1:3][::-1])
     report = art.report
     quantization = {

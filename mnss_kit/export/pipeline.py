@@ -41,11 +41,11 @@ class ExportRequest:
 def export(request: ExportRequest, timings: dict[str, float] | None = None) -> dict:
     """Write the bundle ``request.out``; returns its manifest.  ``timings``, if given, receives
     the wall-clock seconds of each phase (load, quantize, golden, write)."""
-    from ..gpu.schedule import GpuStage, NpuBoundary
     from ..model import checkpoint
+    from ..model.families import family_of
     from .golden import run_golden
     from .npu_files import read_tflite
-    from .writer import BundleParts, write_bundle
+    from .writer import TFLITE_NAME, BundleParts, write_bundle
 
     if request.golden_frames < 1:
         raise UserError("--golden-frames must be at least 1")
@@ -57,23 +57,28 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
     _check_same_model(report, record, ckpt)
     hr_size = _bundle_size(request, npu, model.scale)
     lr_size = (hr_size[0] // model.scale, hr_size[1] // model.scale)
-    stage = GpuStage.from_model(model.config, {k: v.detach().cpu().numpy() for k, v in model.state_dict().items()})
     placement = _placement(model, request, hr_size, Path(ckpt).stem)
     clock.lap("load")
     if npu is None:
         npu = quantize_at(model, Path(ckpt).stem, request.data, hr_size, request.method, request.progress)
     clock.lap("quantize")
     tflite = read_tflite(npu.tflite)
-    _check_npu_io(tflite, hr_size)
-    in_q, out_q = tflite.tensors[tflite.inputs[0]].qparams(), tflite.tensors[tflite.outputs[0]].qparams()
+    _check_npu_io(tflite)
+    npu_io = {"model": TFLITE_NAME, "input": tflite.inputs[0], "output": tflite.outputs[0],
+              "input_q": tflite.tensors[tflite.inputs[0]].qparams(), "output_q": tflite.tensors[tflite.outputs[0]].qparams()}
+    state = {k: v.detach().cpu().numpy() for k, v in model.state_dict().items()}
+    plan = family_of(model).gpu_plan(model.config, state, lr_size, npu_io, request.profile)
+    _check_boundary_sizes(tflite, plan)
     pattern = record.get("jitter_pattern") or "mnss"
-    frames, golden_source = golden_input_frames(request, lr_size, model.scale, pattern)
+    inputs = [r["name"] for r in plan["resources"] if r["role"] == "input"]
+    frames, golden_source = golden_input_frames(request, lr_size, model.scale, pattern, inputs)
     log.info("running %d golden frames at %dx%d", len(frames), *hr_size)
-    golden = run_golden(stage, frames, npu.tflite, NpuBoundary(*in_q, *out_q, profile=request.profile))
+    golden = run_golden(plan, frames, npu.tflite, request.profile, model.scale)
     clock.lap("golden")
     parts = BundleParts(
         model=model_section(ckpt, record),
-        stage=stage,
+        plan=plan,
+        scale=model.scale,
         lr_size=lr_size,
         jitter_pattern=pattern,
         stages=[(name, placement_of(name, p, placement)) for name, _, p in model.stages()],
@@ -154,30 +159,44 @@ def _check_same_model(report: dict, record: dict, ckpt: str) -> None:
                             f"but {ckpt} is {record.get(key)!r}")
 
 
-def _check_npu_io(tflite, hr_size: tuple[int, int]) -> None:
+def _check_npu_io(tflite) -> None:
     if len(tflite.inputs) != 1 or len(tflite.outputs) != 1:
         raise UserError(f"npu.tflite has {len(tflite.inputs)} inputs and {len(tflite.outputs)} outputs; "
                         "a bundle's NPU graph takes one image and returns one")
-    w, h = hr_size
     for name in tflite.inputs + tflite.outputs:
         t = tflite.tensors[name]
-        if t.shape != [1, h, w, 3] or t.dtype != "int8" or len(t.scale) != 1:
-            raise UserError(f"npu.tflite tensor '{name}' is {t.dtype} {t.shape}; the bundle needs int8 [1, {h}, {w}, 3] per-tensor quantized")
+        if t.dtype != "int8" or len(t.scale) != 1 or len(t.shape) != 4 or t.shape[0] != 1:
+            raise UserError(f"npu.tflite tensor '{name}' is {t.dtype} {t.shape}; the bundle needs an int8 [1, H, W, C] "
+                            "per-tensor quantized tensor")
+
+
+def _check_boundary_sizes(tflite, plan: dict) -> None:
+    """Each NPU tensor fits the boundary buffer the schedule gives it (4 int8 values per word)."""
+    buffers = {r["name"]: r for r in plan["resources"]}
+    for step in (s for s in plan["schedule"]["steps"] if s["kind"] == "npu"):
+        for tensor, buffer in {**step["inputs"], **step["outputs"]}.items():
+            values = int(np.prod(tflite.tensors[tensor].shape))
+            if buffers[buffer]["words"] != -(-values // 4):
+                raise UserError(f"npu.tflite tensor '{tensor}' has shape {tflite.tensors[tensor].shape}, which does not "
+                                f"fit the bundle buffer '{buffer}' ({buffers[buffer]['words']} words): export at the "
+                                "size the quantize directory was made for")
 
 
 def _placement(model, request: ExportRequest, hr_size, name: str) -> dict | None:
     """The split stage's placement on ``request.device`` (None without a device)."""
     if request.device is None:
         return None
+    from ..model.families import family_of
     from ..split.device import load_device
     from ..split.plan import split_model
 
     plan = split_model(model, load_device(request.device), request.placement, hr_size, model_name=name)
     on_npu = plan.npu_stages()
-    if on_npu != ["recon"]:
+    expected = list(family_of(model).npu_stages)
+    if on_npu != expected:
         where = ", ".join(on_npu) if on_npu else "nothing"
         raise UserError(f"placement '{request.placement}' on {plan.device} runs {where} on the NPU; a bundle runs exactly "
-                        "the reconstruction net there (try --placement default, or a device with an NPU)")
+                        f"the family's NPU stage ({', '.join(expected)}) there (try --placement default, or a device with an NPU)")
     return plan.to_dict()
 
 
@@ -204,16 +223,17 @@ def model_section(ckpt: str, record: dict) -> dict:
     }
 
 
-def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: str) -> tuple[list[dict], str]:
+def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: str, inputs: list[str]) -> tuple[list[dict], str]:
     """``golden_frames`` consecutive numpy frames at ``lr_size``: from ``request.data`` when a sequence
     there has that size, else rendered (built-in scene, EGL)."""
     from ..dataset.loader import eval_sequences
 
     n = request.golden_frames
+    hr_buffers = [k[len("hr_"):] for k in inputs if k.startswith("hr_")]
     if request.data is not None and request.data.is_dir():
-        for seq in eval_sequences(request.data, progress=False):
+        for seq in eval_sequences(request.data, hr_buffers=hr_buffers, progress=False):
             if tuple(seq.meta.lr_size) == tuple(lr_size) and seq.meta.scale == scale and len(seq) >= n:
-                return _first(seq, n), f"dataset {request.data}, sequence {seq.name}, frames 0..{n - 1}"
+                return _first(seq, n, inputs), f"dataset {request.data}, sequence {seq.name}, frames 0..{n - 1}"
     with tempfile.TemporaryDirectory(prefix="mnss-export-golden-") as tmp:
         from ..render.config import RenderConfig, SequenceConfig
         from ..render.writer import render_dataset
@@ -221,18 +241,18 @@ def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: st
         seq_cfg = SequenceConfig(name="golden", scene=GOLDEN_SCENE, seed=1, frames=n, lr_size=tuple(lr_size), scale=scale,
                                  jitter=pattern, hr_samples=1)
         render_dataset(RenderConfig(sequences=[seq_cfg]), Path(tmp), progress=request.progress)
-        seq = eval_sequences(Path(tmp), progress=False)[0]
-        return _first(seq, n), f"rendered: built-in scene '{GOLDEN_SCENE}', seed 1, frames 0..{n - 1}"
+        seq = eval_sequences(Path(tmp), hr_buffers=hr_buffers, progress=False)[0]
+        return _first(seq, n, inputs), f"rendered: built-in scene '{GOLDEN_SCENE}', seed 1, frames 0..{n - 1}"
 
 
-def _first(seq, n: int) -> list[dict]:
+def _first(seq, n: int, inputs: list[str]) -> list[dict]:
     from .golden import frame_from_torch
 
     frames = []
     for t, frame in enumerate(seq):
         if t >= n:
             break
-        frames.append(frame_from_torch(frame))
-    if not all(np.isfinite(f[k]).all() for f in frames for k in ("color", "depth", "motion")):
+        frames.append(frame_from_torch(frame, inputs))
+    if not all(np.isfinite(f[k]).all() for f in frames for k in inputs):
         raise UserError(f"golden frames from sequence '{seq.name}' contain NaN or Inf")
     return frames

@@ -1,10 +1,9 @@
-"""Read a bundle back: the manifest, the golden arrays, and the GPU stage rebuilt from the bundle alone.
+"""Read a bundle back: the manifest, the golden arrays, and the GPU weights from the bundle alone.
 
 :func:`open_bundle` verifies the bundle (:func:`.check.check_bundle`) before anything is read, so
 a reader never runs a bundle whose files differ from what the manifest promises.  The GPU weight
-blocks are unpacked (the inverse of :func:`mnss_kit.gpu.weights.pack_conv3x3`) into the same
-:class:`~mnss_kit.gpu.schedule.GpuStage` the exporter packed, so the desktop emulator can run
-:mod:`mnss_kit.gpu.schedule` on a bundle without the checkpoint.
+blocks are unpacked (the inverse of :func:`mnss_kit.gpu.weights.pack_conv3x3`), so the desktop
+emulator can run the manifest's schedule (:mod:`mnss_kit.gpu.interpret`) without the checkpoint.
 """
 
 from __future__ import annotations
@@ -15,8 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from ..gpu.schedule import GpuStage, NpuBoundary
-from ..gpu.weights import Conv3x3, GpuWeights, layers_of
+from ..gpu.weights import Conv3x3, layers_of
 from .check import check_bundle
 from .manifest import read_manifest
 
@@ -56,37 +54,22 @@ class Bundle:
             out[key] = np.frombuffer(self.read(entry["file"]), dtype=dtype).reshape(entry["shape"]).astype(dtype.newbyteorder("="))
         return out
 
-    def golden_frame(self, index: int) -> dict:
-        """Golden frame ``index`` as the numpy frame :mod:`mnss_kit.gpu.schedule` takes (inputs only)."""
+    def golden_inputs(self, index: int) -> dict:
+        """Golden frame ``index``'s inputs: every ``input`` resource as float32, ``jitter`` and ``reset``."""
         entry = self.manifest["golden"]["frames"][index]
         arrays = self.golden(index)
-        return {"color": arrays["color"].astype(np.float32), "depth": arrays["depth"], "motion": arrays["motion"],
-                "jitter": np.asarray(entry["jitter"], np.float32), "reset": entry["reset"]}
+        out = {name: arrays[name].astype(np.float32) for name in input_names(self.manifest)}
+        return {**out, "jitter": np.asarray(entry["jitter"], np.float32), "reset": entry["reset"]}
 
-    def gpu_stage(self) -> GpuStage:
-        """The GPU stage (config knobs and unpacked weights) from the manifest and ``gpu_weights.bin``."""
+    def gpu_weights(self) -> dict[str, Conv3x3]:
+        """Every learned GPU conv by block name, unpacked from ``gpu_weights.bin``."""
         weights = self.manifest["gpu"]["weights"]
         data = self.read(weights["file"])
         convs = {}
         for block in weights["blocks"]:
             raw = np.frombuffer(data[block["offset"]:block["offset"] + block["bytes"]], dtype="<f4").reshape(block["shape"])
             convs[block["name"]] = unpack_conv3x3(raw, block["conv"]["out_channels"], block["conv"]["in_channels"])
-        aa = tuple(convs[name] for name in sorted((n for n in convs if n.startswith("aa.")), key=lambda n: int(n.split(".")[1])))
-        config = self.manifest["model"]["config"]
-        return GpuStage(
-            scale=self.manifest["scale"],
-            with_history=config["history"] == "output",
-            activation=config["inpaint_activation"],
-            weight_upsample=config["weight_upsample"],
-            enhance_beta=config["enhance_beta"] if config["enhance"] else None,
-            weights=GpuWeights(convs.get("inpaint"), aa),
-        )
-
-    def boundary(self) -> NpuBoundary:
-        """Scales and zero points of the NPU input and output, and the golden frames' numerics profile."""
-        by_role = {b["role"]: b for b in self.manifest["boundary"]}
-        i, o = by_role["npu_input"], by_role["npu_output"]
-        return NpuBoundary(i["scale"], i["zero_point"], o["scale"], o["zero_point"], self.manifest["golden"]["profile"])
+        return convs
 
 
 def open_bundle(path: str | Path, verify: bool = True) -> Bundle:
@@ -99,3 +82,8 @@ def open_bundle(path: str | Path, verify: bool = True) -> Bundle:
             more = f" (and {len(problems) - 1} more; run `mnss-kit bundle check`)" if len(problems) > 1 else ""
             raise UserError(f"{root}: {problems[0]}{more}")
     return Bundle(root, manifest)
+
+
+def input_names(manifest: dict) -> list[str]:
+    """Names of the resources the engine fills each frame (``role: input``), in manifest order."""
+    return [r["name"] for r in manifest["resources"] if r["role"] == "input"]

@@ -16,11 +16,10 @@ import numpy as np
 from .. import __version__
 from ..fileio import atomic_directory
 from ..gpu.glsl import flatten
-from ..gpu.schedule import GpuStage
+from ..gpu.plan import WEIGHT_ALIGNMENT, WEIGHTS_FILE, pack_weights
 from ..model.checkpoint import code_version
 from ..ops import conventions
 from ..ops.jitter import jitter_sequence, period, subpixel_index
-from . import gpu_plan
 from .boundary import boundary_entry
 from .check import check_bundle
 from .golden import TOLERANCES, GoldenFrame, write_golden
@@ -37,7 +36,8 @@ class BundleParts:
     ``[(name, placement)]`` in execution order; ``placement`` the split stage's plain data (or None)."""
 
     model: dict
-    stage: GpuStage
+    plan: dict  # the family's GPU plan (``Family.gpu_plan``): passes, weight blocks, resources, schedule
+    scale: int
     lr_size: tuple[int, int]
     jitter_pattern: str
     stages: list[tuple[str, str]]
@@ -62,14 +62,14 @@ def stage_bundle(root: Path, parts: BundleParts) -> dict:
     """Write every file and the manifest into ``root`` (an empty directory); returns the manifest."""
     (root / TFLITE_NAME).write_bytes(parts.npu.tflite)
     (root / ONNX_NAME).write_bytes(parts.npu.onnx)
-    passes = gpu_plan.pass_entries(parts.stage)
+    passes = parts.plan["passes"]
     (root / "shaders").mkdir()
     for entry in passes:
         (root / entry["file"]).write_text(flatten(Path(entry["file"]).name))
-    weights, blocks = gpu_plan.pack_weights(parts.stage)
-    (root / gpu_plan.WEIGHTS_FILE).write_bytes(weights)
-    table = jitter_table(parts.jitter_pattern, parts.stage.scale)
-    golden = write_golden(root, parts.golden, parts.stage.scale, table)
+    weights, blocks = pack_weights(parts.plan["weights"])
+    (root / WEIGHTS_FILE).write_bytes(weights)
+    table = jitter_table(parts.jitter_pattern, parts.scale)
+    golden = write_golden(root, parts.golden, parts.scale, table)
     manifest = build_manifest(parts, passes, blocks, table, golden)
     manifest["files"] = file_table(root)
     (root / MANIFEST_NAME).write_text(json.dumps(manifest, indent=2) + "\n")
@@ -85,13 +85,12 @@ def jitter_table(pattern: str, scale: int) -> list[dict]:
 
 
 def build_manifest(parts: BundleParts, passes: list[dict], blocks: list[dict], table: list[dict], golden: list[dict]) -> dict:
-    s = parts.stage.scale
+    s = parts.scale
     w, h = parts.lr_size
     npu_model = read_tflite(parts.npu.tflite, TFLITE_NAME)
     npu_in, npu_out = npu_model.inputs[0], npu_model.outputs[0]
     in_q, out_q = npu_model.tensors[npu_in].qparams(), npu_model.tensors[npu_out].qparams()
-    npu_steps = {"model": TFLITE_NAME, "input": npu_in, "output": npu_out, "input_q": in_q, "output_q": out_q}
-    schedule = gpu_plan.schedule(parts.stage, parts.lr_size, npu_steps, parts.profile)
+    schedule = parts.plan["schedule"]
     return {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -114,8 +113,8 @@ def build_manifest(parts: BundleParts, passes: list[dict], blocks: list[dict], t
         "gpu": {
             "language": "GLSL ES 3.10",
             "passes": passes,
-            "weights": {"file": gpu_plan.WEIGHTS_FILE, "dtype": "float32", "byte_order": "little",
-                        "alignment": gpu_plan.WEIGHT_ALIGNMENT, "blocks": blocks},
+            "weights": {"file": WEIGHTS_FILE, "dtype": "float32", "byte_order": "little",
+                        "alignment": WEIGHT_ALIGNMENT, "blocks": blocks},
         },
         "npu": {
             "model": TFLITE_NAME,
@@ -133,7 +132,7 @@ def build_manifest(parts: BundleParts, passes: list[dict], blocks: list[dict], t
             boundary_entry("npu_input", npu_in, "gpu->npu", npu_model.tensors[npu_in].shape, npu_model.tensors[npu_in].dtype, *in_q, "npu_input"),
             boundary_entry("npu_output", npu_out, "npu->gpu", npu_model.tensors[npu_out].shape, npu_model.tensors[npu_out].dtype, *out_q, "npu_output"),
         ],
-        "resources": gpu_plan.resources(parts.stage, parts.lr_size),
+        "resources": parts.plan["resources"],
         "schedule": schedule,
         "placement": parts.placement,
         "golden": {

@@ -16,7 +16,6 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from ..model.config import aa_input_channels
 from ..ops.jitter import subpixel_index
 from . import passes as P
 from .glsl import flatten
@@ -249,7 +248,7 @@ class MesaPasses:
     @_in_own_context
     def avgpool(self, rectified, color, jitter, scale: int, history_at_samples: bool):
         h, w = color.shape[:2]
-        channels = aa_input_channels(history_at_samples)
+        channels = P.avgpool_channels(history_at_samples)
         out = self.empty((w, h), "rgba16f", layers=layers_of(channels))
         res = {"rectified": self.texture(rectified, "rgba16f"), "color": self.texture(color, "rgba16f"), "aa_input": out}
         uni = {"u_scale": scale, "u_subpixel": _subpixel(jitter, scale), "u_history_at_samples": int(history_at_samples)}

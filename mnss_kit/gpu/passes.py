@@ -118,6 +118,12 @@ PASSES = {
     )
 }
 
+def avgpool_channels(history_at_samples: bool) -> int:
+    """Channels ``avgpool_pass`` writes, in order (each RGB): avgpool(I_R), then I_R at this
+    frame's sampled sub-pixels when ``history_at_samples``, then the LR colour."""
+    return 9 if history_at_samples else 6
+
+
 # Execution order within a frame (the AA net runs conv3x3_pass once per layer).
 PASS_ORDER = tuple(PASSES)
 

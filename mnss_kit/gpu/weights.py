@@ -1,10 +1,4 @@
-"""Learned weights of the GPU stage, read from a model state dict and packed for the shaders.
-
-The GPU stage of MNSS has two learned parts: the inpainting conv (``inpaint.conv``, 4 -> 1
-channels) and the anti-aliasing net (``aa.net``, 3x3 convs with ReLU between them).  No torch
-here: the caller hands a state dict of numpy arrays (``{k: v.numpy() for k, v in
-model.state_dict().items()}``).
-"""
+"""Learned 3x3 convs of a GPU stage, packed for ``conv3x3.glsl`` (no torch: numpy arrays)."""
 
 from __future__ import annotations
 
@@ -13,7 +7,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UserError
-from ..model.config import aa_input_channels
 
 
 def layers_of(channels: int) -> int:
@@ -60,41 +53,3 @@ class Conv3x3:
 
     def packed(self) -> np.ndarray:
         return pack_conv3x3(self.weight, self.bias)
-
-
-@dataclass(frozen=True)
-class GpuWeights:
-    """``inpaint``: the inpainting conv, None without history; ``aa``: the AA net's convs in order."""
-
-    inpaint: Conv3x3 | None
-    aa: tuple[Conv3x3, ...]
-
-    @property
-    def aa_history_at_samples(self) -> bool:
-        """The AA net reads I_R at the sampled sub-pixels too (``model.config.aa_input_channels``)."""
-        return self.aa[0].in_channels == aa_input_channels(True)
-
-    @classmethod
-    def from_state_dict(cls, state: dict[str, np.ndarray]) -> "GpuWeights":
-        """From an MNSS state dict (numpy values), keys ``inpaint.conv.*`` and ``aa.net.<i>.*``."""
-
-        def conv(prefix: str) -> Conv3x3:
-            try:
-                weight, bias = state[prefix + ".weight"], state[prefix + ".bias"]
-            except KeyError as e:
-                raise UserError(f"model weights lack {e.args[0]}") from None
-            return Conv3x3(np.asarray(weight, np.float32), np.asarray(bias, np.float32))
-
-        inpaint = conv("inpaint.conv") if "inpaint.conv.weight" in state else None
-        indices = sorted({int(k.split(".")[2]) for k in state if k.startswith("aa.net.") and k.endswith(".weight")})
-        if not indices:
-            raise UserError("model weights lack the anti-aliasing net (aa.net.*)")
-        aa = tuple(conv(f"aa.net.{i}") for i in indices)
-        for first, second in zip(aa, aa[1:]):
-            if first.out_channels != second.in_channels:
-                raise UserError("anti-aliasing net layers do not chain (channel counts differ)")
-        paper, with_samples = aa_input_channels(False), aa_input_channels(True)
-        if aa[0].in_channels not in (paper, with_samples) or aa[-1].out_channels != 3:
-            raise UserError(f"anti-aliasing net must map {paper} channels (pooled history, colour) or {with_samples} "
-                            "(pooled history, history at the samples, colour) to 3")
-        return cls(inpaint, aa)

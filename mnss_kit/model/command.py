@@ -29,7 +29,7 @@ def run(args: argparse.Namespace) -> int:
         print("No checkpoint is shipped yet (mnss_kit/zoo/ is empty); train one with `mnss-kit train`.")
     if "configs" in listing:
         print("\nModel configs (configs/models/):")
-        print(_table(listing["configs"], ("name", "scale", "recon", "history", "macs_per_pixel", "npu_macs_per_pixel", "params")))
+        print(_table(listing["configs"], ("name", "family", "scale", "macs_per_pixel", "npu_macs_per_pixel", "params")))
     return 0
 
 
@@ -63,9 +63,8 @@ def config_rows() -> list[dict]:
         rows.append(
             {
                 "name": name,
+                "family": config.family,
                 "scale": config.scale,
-                "recon": f"{config.recon_resolution} {config.recon_width}x{config.recon_layers}",
-                "history": config.history,
                 "macs_per_pixel": round(report.total),
                 "npu_macs_per_pixel": round(report.by_placement("npu")),
                 "params": report.params,

@@ -1,32 +1,82 @@
-"""Model families by name, and building a model from its config."""
+"""The model families by name, and building a model from its config.
+
+``FAMILIES`` is the one table of families (see :mod:`.family`); each record lives in its
+family's folder.  Light at import (no torch): the records load their torch code when called.
+"""
 
 from __future__ import annotations
 
-import math
+from .family import Family
+from .mnss import MNSS_FAMILY
 
-import torch
-from torch import nn
-
-from .config import ModelConfig
-from .mnss import MNSS
-
-MODELS = {"mnss": MNSS}
+FAMILIES: dict[str, Family] = {"mnss": MNSS_FAMILY}
 
 
-def build_model(config: ModelConfig) -> nn.Module:
+def family_named(name: str) -> Family:
+    from ..errors import UserError
+
+    if name not in FAMILIES:
+        raise UserError(f"unknown model family '{name}' (one of: {', '.join(FAMILIES)})")
+    return FAMILIES[name]
+
+
+GENERIC_PLACEMENTS = ("default", "all-gpu", "auto")  # split.plan's own modes
+
+
+def placement_modes() -> tuple[str, ...]:
+    """``--placement`` choices: the generic modes and every family's named ones (``Family.placements``)."""
+    named = dict.fromkeys(mode for family in FAMILIES.values() for mode in family.placements)
+    return (*GENERIC_PLACEMENTS[:2], *named, GENERIC_PLACEMENTS[2])
+
+
+def family_of(model_or_config) -> Family:
+    """The record of a model's (or a model config's) family."""
+    config = getattr(model_or_config, "config", model_or_config)
+    return family_named(config.family)
+
+
+def build_model(config):
     """A freshly initialised model of ``config.family`` (float32, CPU)."""
-    return MODELS[config.family](config)
+    return family_of(config).build(config)
 
 
-def randomise_convs(model: nn.Module, prefixes: tuple[str, ...] = ("recon", "aa"), noise: float = 0.05) -> nn.Module:
+def npu_modules(model) -> dict:
+    """``{stage name: submodule}`` of the family's NPU stages, in execution order."""
+    family = family_of(model)
+    return {name: module for name, module, _ in model.stages() if name in family.npu_stages}
+
+
+def npu_module(model):
+    """The one NPU stage of ``model`` (the int8 graph a bundle runs)."""
+    from ..errors import UserError
+
+    modules = npu_modules(model)
+    if len(modules) != 1:
+        raise UserError(f"a {model.config.family} model has NPU stages {list(modules)}; the toolkit quantizes exactly one")
+    return next(iter(modules.values()))
+
+
+def npu_stage_name(model) -> str:
+    """Name of the one NPU stage of ``model``."""
+    npu_module(model)
+    return next(iter(npu_modules(model)))
+
+
+def randomise_convs(model, prefixes: tuple[str, ...] | None = None, noise: float = 0.05):
     """Random weights for an untrained example model (tests, benchmarks, doc examples); returns ``model``.
 
-    The convs under ``prefixes`` get weights and biases as PyTorch's Conv2d draws them by
-    default (uniform within +-1/sqrt(fan_in)) plus N(0, ``noise``): every tensor carries signal
-    (a fresh model's last convs are zero), quantization is not trivial, and a change to the
-    model's own init does not move these numerics (a He-scaled random net amplifies int8
-    rounding several times more).
+    The convs under ``prefixes`` (default: the family's ``learned_prefixes``) get weights and biases as PyTorch's Conv2d
+    draws them by default (uniform within +-1/sqrt(fan_in)) plus N(0, ``noise``): every tensor
+    carries signal (a fresh model's last convs are zero), quantization is not trivial, and a
+    change to the model's own init does not move these numerics (a He-scaled random net amplifies
+    int8 rounding several times more).
     """
+    import math
+
+    import torch
+    from torch import nn
+
+    prefixes = family_of(model).learned_prefixes if prefixes is None else prefixes
     with torch.no_grad():
         for name, module in model.named_modules():
             if name.startswith(prefixes) and isinstance(module, nn.Conv2d):

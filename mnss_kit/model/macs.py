@@ -3,7 +3,8 @@
 Learned convolutions are counted exactly by running one small frame with a hook
 on every ``nn.Conv2d`` (``k*k*c_in/groups`` MACs per output element, zero
 padding included, as usual).  The fixed-function GPU arithmetic is counted by
-the rules below, per element it produces, and reported apart ("fixed"):
+each family's rules (``Family.fixed_macs``), per element it produces, and reported apart
+("fixed"), with these unit costs:
 
     bilinear sample        4 per channel (four weighted taps)
     blend w*a + (1-w)*b    2 per channel
@@ -58,36 +59,17 @@ class MacReport:
         }
 
 
-def fixed_macs(model: nn.Module) -> dict[str, float]:
-    """Fixed-function MACs per HR output pixel of each stage of an MNSS ``model``."""
-    c = model.config
-    lr = 1.0 / (c.scale * c.scale)  # LR elements per HR pixel
-    with_history = c.history != "none"
-    costs = {
-        "warp": 2 * BILINEAR + 2 + 1 * BILINEAR + 4 * BILINEAR,  # motion up (and x s), depth up, warp 3+1 channels
-        "inpaint": 3 * BILINEAR,  # I_U
-        "aa": 3 + 3 * lr,  # avgpool of I_R, residual add at LR
-        "insert": 0.0,
-        "recon": 3.0,  # residual add at HR (the clamp is free)
-        "enhance": 5 * 3,
-    }
-    if with_history:
-        weight_up = BILINEAR if c.weight_upsample == "bilinear" else 0
-        costs["inpaint"] += 4 * 2 * lr + 1 * lr + weight_up + 3 * 2  # |difference|, activation, upsample, blend
-    return costs
-
-
 def count_macs(model: nn.Module, lr_size: tuple[int, int] = (8, 8)) -> MacReport:
     """Run one frame of ``lr_size`` (h, w) through ``model`` and count its MACs per HR output pixel."""
+    from .families import family_of
+    from .family import example_frame
+
     h, w = lr_size
-    device = next(model.parameters()).device
-    frame = {
-        "color": torch.rand(1, 3, h, w, device=device),
-        "depth": torch.rand(1, 1, h, w, device=device),
-        "motion": torch.zeros(1, 2, h, w, device=device),
-        "jitter": torch.zeros(1, 2, device=device),
-        "reset": torch.zeros(1, device=device),
-    }
+    family = family_of(model)
+    # a still frame from torch's global generator, as earlier releases drew it: training runs that save
+    # checkpoints (and so count MACs) between steps keep the random stream they had
+    frame = example_frame(family, h, w, model.scale, still=True)
+    frame = {k: v.to(next(model.parameters()).device) for k, v in frame.items()}
     hr_pixels = h * w * model.scale * model.scale
     stages = {name: StageCost(placement) for name, _, placement in model.stages()}
     hooks = []
@@ -101,7 +83,7 @@ def count_macs(model: nn.Module, lr_size: tuple[int, int] = (8, 8)) -> MacReport
     finally:
         for hook in hooks:
             hook.remove()
-    for name, cost in fixed_macs(model).items():
+    for name, cost in family.fixed_macs(model.config).items():
         if name in stages:
             stages[name].fixed = cost
     return MacReport(stages=stages, params=sum(p.numel() for p in model.parameters()))

@@ -1,6 +1,6 @@
 """Activation ranges for the NPU stage, from inputs recorded on recurrent runs of the float model.
 
-Inputs are recorded with a forward hook on the stage (``model.recon``) while
+Inputs are recorded with a forward hook on the NPU stage (``model.families.npu_module``) while
 the whole float model runs frame after frame, so the history it sees is its
 own output, as on the device.  Ranges are computed on the float graph written
 as ONNX, whose tensor names are the graph's:

@@ -1,4 +1,4 @@
-"""``mnss-kit quantize``: int8 post-training quantization of a model's NPU stage (``model.recon``).
+"""``mnss-kit quantize``: int8 post-training quantization of a model's NPU stage (``Family.npu_stages``).
 
 Calibration records the stage's inputs on recurrent runs of the float model,
 spread over every calibration sequence.  The report compares the float
@@ -45,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import UserError
     from ..fileio import atomic_directory
     from ..model.checkpoint import load
+    from ..model.families import npu_module
     from .artifacts import comparison_table, summary_table
     from .stage import QuantizeOptions, quantize_module, write_artifacts
 
@@ -70,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", args.frames, data)
         samples = calibration_samples(model, sequences, args.frames, progress=progress)
         options = QuantizeOptions(method=args.method, int16=args.a16, qat_steps=args.qat)
-        art = quantize_module(model.recon, samples, options, name=name)
+        art = quantize_module(npu_module(model), samples, options, name=name)
         art.report["data"] = str(args.data) if args.data else f"rendered configs/data/{DEFAULT_DATA_CONFIG}.yaml"
         art.report["checkpoint"] = {"path": str(args.model), "family": record.get("family"), "scale": record.get("scale"), "code_version": record.get("code_version")}
         if args.pipeline_frames:
@@ -160,6 +161,7 @@ def calibration_samples(model, sequences, count: int, progress: bool = False) ->
     import torch
     from tqdm import tqdm
 
+    from ..model.families import npu_module
     from .calibrate import InputRecorder
 
     picks = sample_frames([len(s) for s in sequences], count)
@@ -171,7 +173,7 @@ def calibration_samples(model, sequences, count: int, progress: bool = False) ->
                 if not wanted:
                     break
                 if t in wanted:
-                    with InputRecorder(model.recon) as rec:
+                    with InputRecorder(npu_module(model)) as rec:
                         _, _, state = model(frame, state)
                     samples.extend(rec.samples)
                     wanted.discard(t)
@@ -185,10 +187,11 @@ def int8_model(model, art, resolver: str = "reference"):
     """A copy of the float ``model`` whose NPU stage runs ``art.tflite`` in LiteRT (``resolver`` kernels)."""
     import copy
 
+    from ..model.families import npu_stage_name
     from .runtime import QuantizedStage, swap_stage
 
     quantized = copy.deepcopy(model).eval()
-    swap_stage(quantized, "recon", QuantizedStage.build(art.graph, art.tflite, backend="tflite", resolver=resolver))
+    swap_stage(quantized, npu_stage_name(model), QuantizedStage.build(art.graph, art.tflite, backend="tflite", resolver=resolver))
     return quantized
 
 

@@ -124,7 +124,7 @@ class QuantizedStage:
 
 
 def swap_stage(model, attribute: str, replacement):
-    """Replace ``model.<attribute>`` (e.g. ``recon``) with ``replacement``; returns the original module."""
+    """Replace ``model.<attribute>`` (a stage name) with ``replacement``; returns the original module."""
     original = getattr(model, attribute)
     setattr(model, attribute, replacement)
     return original

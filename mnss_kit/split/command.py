@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..model.families import placement_modes
+
 HELP = "place each stage on GPU or NPU for a device profile and estimate ms per stage (estimates)"
-PLACEMENT_CHOICES = ("default", "all-gpu", "aa-on-npu", "auto")  # mirrors plan.PLACEMENTS
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -16,7 +17,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "placement and estimates do not depend on the weights",
     )
     parser.add_argument("--device", required=True, help="device profile: a YAML path or a name under configs/devices/")
-    parser.add_argument("--placement", choices=PLACEMENT_CHOICES, default="default",
+    parser.add_argument("--placement", choices=placement_modes(), default="default",
                         help="default (the model's split), all-gpu, aa-on-npu, or auto (lowest estimate)")
     parser.add_argument("--auto", action="store_const", const="auto", dest="placement",
                         help="same as --placement auto")

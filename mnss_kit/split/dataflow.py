@@ -29,6 +29,8 @@ import torch
 from torch import nn
 from torch.utils._python_dispatch import TorchDispatchMode
 
+from ..model.families import family_of
+from ..model.family import example_frame
 from ..model.macs import count_macs
 
 # ATen op -> TFLite builtin
@@ -128,6 +130,7 @@ class ModelFlow:
     scale: int
     stages: list[StageFlow]
     edges: list[Edge]
+    family: str = ""  # the model's family (``model.families.FAMILIES``): its placement modes
 
     def stage(self, name: str) -> StageFlow:
         return next(s for s in self.stages if s.name == name)
@@ -141,28 +144,18 @@ def trace_model(model: nn.Module, lr_size: tuple[int, int] = (8, 12)) -> ModelFl
     """
     h, w = lr_size
     scale = int(model.scale)
-    frame = _dummy_frame(h, w)
+    frame = example_frame(family_of(model), h, w, scale, torch.Generator().manual_seed(0))
     state = model.initial_state(frame)
     tracer = _Tracer(list(model.stages()), (h, w), scale)
     with torch.no_grad(), tracer.recording():
         output, _, next_state = model(frame, state)
     flow = tracer.build(frame, state, next_state, output)
+    flow.family = model.config.family
     macs = count_macs(model, lr_size=lr_size)
     for stage in flow.stages:
         cost = macs.stages.get(stage.name)
         stage.macs_per_pixel = cost.total if cost is not None else 0.0
     return flow
-
-
-def _dummy_frame(h: int, w: int) -> dict:
-    g = torch.Generator().manual_seed(0)
-    return {
-        "color": torch.rand(1, 3, h, w, generator=g),
-        "depth": torch.rand(1, 1, h, w, generator=g),
-        "motion": torch.randn(1, 2, h, w, generator=g),
-        "jitter": torch.rand(1, 2, generator=g) - 0.5,
-        "reset": torch.zeros(1),
-    }
 
 
 class _Recorder(TorchDispatchMode):

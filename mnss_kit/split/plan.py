@@ -2,11 +2,13 @@
 
 Placements (``PLACEMENTS``):
 
-    default    the model's own split (MNSS paper: warp, inpaint, AA, insert, enhance on the
-               GPU; reconstruction on the NPU)
+    default    the model's own split (each stage's ``placement``; for MNSS the paper's: warp,
+               inpaint, AA, insert, enhance on the GPU, reconstruction on the NPU)
     all-gpu    everything on the GPU (the fallback when there is no NPU)
-    aa-on-npu  the default plus the anti-aliasing net on the NPU
     auto       the lowest estimated frame time over every assignment the NPU's ops allow
+
+plus the named modes of each family (``Family.placements``: the default with more stages on
+the NPU; MNSS's ``aa-on-npu`` moves its anti-aliasing net there).
 
 A stage goes to the NPU only if the device has one and accepts every op of the stage
 (``DeviceProfile.npu.ops``); a stage is never cut in two.  Every op left on the GPU carries
@@ -19,11 +21,12 @@ import itertools
 from collections import Counter
 from dataclasses import asdict, dataclass, field
 
+from ..model.families import GENERIC_PLACEMENTS, family_named, placement_modes
 from .dataflow import NOTES, ModelFlow, StageFlow, trace_model
 from .device import DeviceProfile
 from .estimate import ESTIMATE_LABEL, StageCostEstimate, estimate_stage, handoff_ms
 
-PLACEMENTS = ("default", "all-gpu", "aa-on-npu", "auto")
+PLACEMENTS = placement_modes()
 DEFAULT_RESOLUTION = (1280, 720)
 ESTIMATE_NOTE = (
     "Every *_ms figure is an estimate from the device profile (roofline per stage plus a "
@@ -115,15 +118,13 @@ def split_model(model, device: DeviceProfile, placement: str = "default", resolu
 def plan_flow(flow: ModelFlow, device: DeviceProfile, placement: str, resolution: tuple[int, int],
               model_name: str = "model") -> Placement:
     """:func:`split_model` on an already traced model (tracing once serves many devices)."""
-    if placement not in PLACEMENTS:
-        raise ValueError(f"placement must be one of {PLACEMENTS}, got {placement!r}")
+    own = family_named(flow.family).placements if flow.family else {}
+    if placement not in (*GENERIC_PLACEMENTS, *own):
+        raise ValueError(f"placement must be one of {(*GENERIC_PLACEMENTS, *own)}, got {placement!r}")
     planner = _Planner(flow, device, resolution)
     eligible = [s.name for s in flow.stages if planner.eligible(s)]
-    requested = {
-        "default": {s.name for s in flow.stages if s.placement == "npu"},
-        "all-gpu": set(),
-        "aa-on-npu": {s.name for s in flow.stages if s.placement == "npu" or s.name == "aa"},
-    }.get(placement)
+    default = {s.name for s in flow.stages if s.placement == "npu"}
+    requested = {"default": default, "all-gpu": set(), **{m: default | set(more) for m, more in own.items()}}.get(placement)
     if requested is None:
         on_npu = planner.best(eligible)
     else:

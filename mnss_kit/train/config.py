@@ -3,7 +3,7 @@
 An experiment file (``configs/models/*.yaml``) has three sections::
 
     schema: 1
-    model: {...}        # mnss_kit.model.config.ModelConfig
+    model: {...}        # the family's config class (mnss_kit.model.families.FAMILIES)
     train: {...}        # TrainConfig below
     data:               # optional: render configs that create the data when it is missing
       train: configs/data/train_x2.yaml
@@ -14,12 +14,14 @@ Relative data directories are resolved against the working directory.
 
 from __future__ import annotations
 
+from typing import Any
+
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..model.config import model_config_from_dict
 from ..config import apply_overrides, from_dict, read_yaml, resolve_config_path
 from ..errors import UserError
-from ..model.config import ModelConfig
 
 SCHEMA_VERSION = 1
 
@@ -117,7 +119,7 @@ class DataSection:
 
 @dataclass
 class ExperimentConfig:
-    model: ModelConfig
+    model: Any  # the family's config dataclass (``load_experiment`` reads it with model.config.model_config_from_dict)
     train: TrainConfig = field(default_factory=TrainConfig)
     data: DataSection | None = None
     schema: int = SCHEMA_VERSION
@@ -133,7 +135,9 @@ def load_experiment(name_or_path: str | Path, overrides: list[str] | None = None
     data = apply_overrides(read_yaml(path), overrides)
     if "model" not in data:
         raise UserError(f"{path}: missing required key 'model'")
-    return from_dict(ExperimentConfig, data, source=str(path)), path
+    experiment = from_dict(ExperimentConfig, data, source=str(path))
+    experiment.model = model_config_from_dict(data["model"], source=str(path))
+    return experiment, path
 
 
 def _as_paths(value: str | list[str]) -> list[Path]:

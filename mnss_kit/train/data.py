@@ -70,10 +70,13 @@ class PassWindows(Dataset):
         return self.windows[index]
 
 
-def open_windows(cfg: TrainConfig, dirs: list[Path], crop: int | None, progress: bool) -> WindowDataset:
-    """The windows of ``dirs`` with the decoded-frame cache (built on first use)."""
+def open_windows(cfg: TrainConfig, dirs: list[Path], crop: int | None, progress: bool,
+                 hr_buffers: tuple[str, ...] = ()) -> WindowDataset:
+    """The windows of ``dirs`` with the decoded-frame cache (built on first use); ``hr_buffers``:
+    the HR G-buffers the model family reads (``Family.hr_inputs``)."""
     size = None if crop is None else (crop, crop)
-    return WindowDataset([str(d) for d in dirs], cfg.frames_per_window, size, seed=cfg.seed, cache=True, cache_dir=cfg.cache_dir, progress=progress)
+    return WindowDataset([str(d) for d in dirs], cfg.frames_per_window, size, seed=cfg.seed, cache=True, cache_dir=cfg.cache_dir,
+                         progress=progress, hr_buffers=hr_buffers)
 
 
 def step_loader(windows: WindowDataset, cfg: TrainConfig, rank: int, world_size: int, start_step: int) -> DataLoader:

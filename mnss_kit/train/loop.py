@@ -23,12 +23,11 @@ from torch import nn
 
 from ..config import to_dict
 from ..errors import UserError
-from ..model.families import build_model
+from ..model.families import build_model, family_of
 from . import distributed
 from .config import ExperimentConfig, TrainConfig
 from .data import ensure_data, open_windows, step_loader
-from .losses import MNSSLoss
-from .recurrent import TERMS, WindowChunk, burn_in, detach_state, validate
+from .recurrent import WindowChunk, burn_in, detach_state, validate
 from .state import FINAL, LAST, load_last, save_final, save_last
 from .summaries import Summaries
 
@@ -69,7 +68,7 @@ def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: 
     _check_out_dir(out_dir, resume)
     if world.is_main:
         ensure_data(cfg, experiment.data, progress)
-    windows, val_windows = _open_data(cfg, world, progress)
+    windows, val_windows = _open_data(cfg, world, progress, family_of(experiment.model).hr_inputs)
     if windows.scale != experiment.model.scale:
         raise UserError(f"training data is x{windows.scale} but the model is x{experiment.model.scale}")
 
@@ -82,7 +81,7 @@ def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: 
              cfg.steps, world.size, cfg.batch_size, cfg.burn_in, cfg.window, cfg.crop, world.size, threads)
 
     summaries = Summaries((Path(cfg.log_dir) if cfg.log_dir else out_dir / "logs") if world.is_main else None, run.step)
-    chunk = WindowChunk(model, MNSSLoss(experiment.model.scale, cfg.perceptual_weight, cfg.aa_weight, cfg.flicker_weight))
+    chunk = WindowChunk(model, family_of(experiment.model).loss(experiment.model, cfg))
     runner = nn.parallel.DistributedDataParallel(chunk) if world.distributed else chunk
     try:
         steps_per_s = _run_steps(cfg, run, model, optimizer, runner, windows, val_windows, summaries, out_dir, record, world, progress)
@@ -128,7 +127,7 @@ def _run_steps(cfg, run, model, optimizer, runner, windows, val_windows, summari
     loader = step_loader(windows, cfg, world.rank, world.size, run.step)
     val_indices = _spread(len(val_windows), cfg.val_windows) if val_windows is not None else []
     bar = tqdm(total=cfg.steps, initial=run.step, unit="step", desc="train", disable=None if (progress and world.is_main) else True, dynamic_ncols=True)
-    running = torch.zeros(len(TERMS))
+    running = torch.zeros(len(_chunk(runner).loss.terms))
     logged_steps = 0
     start_time, start_step = time.perf_counter(), run.step
     prior_elapsed = run.elapsed_s
@@ -141,7 +140,7 @@ def _run_steps(cfg, run, model, optimizer, runner, windows, val_windows, summari
             run.elapsed_s = prior_elapsed + time.perf_counter() - start_time
             bar.update(1)
             if run.step % cfg.log_every == 0 or run.step == cfg.steps:
-                _log_terms(run, running / logged_steps, optimizer, summaries, bar, world)
+                _log_terms(run, running / logged_steps, optimizer, summaries, bar, world, runner)
                 running.zero_()
                 logged_steps = 0
             if world.is_main and val_indices and ((cfg.val_every and run.step % cfg.val_every == 0) or run.step == cfg.steps):
@@ -162,19 +161,19 @@ def _run_steps(cfg, run, model, optimizer, runner, windows, val_windows, summari
     finally:
         bar.close()
     if logged_steps:
-        _log_terms(run, running / logged_steps, optimizer, summaries, None, world)
+        _log_terms(run, running / logged_steps, optimizer, summaries, None, world, runner)
     seconds = time.perf_counter() - start_time
     return (run.step - start_step) / seconds if seconds > 0 else 0.0
 
 
 def _step(cfg: TrainConfig, step: int, model, optimizer, runner, batch: dict, world) -> torch.Tensor:
-    """One optimizer update on a batch of windows; returns the detached loss terms (TERMS order)."""
+    """One optimizer update on a batch of windows; returns the detached loss terms (``loss.terms`` order)."""
     window = batch["reference"].shape[1]
     loss_frames = window - cfg.burn_in
     bptt = cfg.bptt or loss_frames
     gt_history = cfg.uses_gt_history(step)
     state, valid = burn_in(model, batch, cfg.burn_in, gt_history, cfg.crop_mask)
-    terms = torch.zeros(len(TERMS))
+    terms = torch.zeros(len(_chunk(runner).loss.terms))
     for t0 in range(cfg.burn_in, window, bptt):
         t1 = min(window, t0 + bptt)
         # accumulate gradients locally; the last chunk's backward all-reduces the sum
@@ -189,11 +188,11 @@ def _step(cfg: TrainConfig, step: int, model, optimizer, runner, batch: dict, wo
     return terms
 
 
-def _log_terms(run: RunState, mean_terms: torch.Tensor, optimizer, summaries: Summaries, bar, world) -> None:
+def _log_terms(run: RunState, mean_terms: torch.Tensor, optimizer, summaries: Summaries, bar, world, runner) -> None:
     if world.distributed:
         torch.distributed.all_reduce(mean_terms)
         mean_terms = mean_terms / world.size
-    values = dict(zip(TERMS, mean_terms.tolist()))
+    values = dict(zip(_chunk(runner).loss.terms, mean_terms.tolist()))
     run.recent_loss = values["total"]
     scalars = {f"loss/{k}": v for k, v in values.items()}
     scalars["lr"] = optimizer.param_groups[0]["lr"]
@@ -207,7 +206,13 @@ def _validate(cfg: TrainConfig, run: RunState, model, val_windows, indices: list
     run.val_psnr = scalars["val/psnr"]
     summaries.scalars(run.step, scalars)
     summaries.images(run.step, images)
-    log.info("step %d: validation PSNR %.2f dB (I_U %.2f dB)", run.step, scalars["val/psnr"], scalars["val/psnr_upsampled"])
+    floors = [f"{k[len('val/psnr_'):]} {v:.2f} dB" for k, v in scalars.items() if k.startswith("val/psnr_")]
+    log.info("step %d: validation PSNR %.2f dB%s", run.step, scalars["val/psnr"], f" ({', '.join(floors)})" if floors else "")
+
+
+def _chunk(runner) -> WindowChunk:
+    """The :class:`WindowChunk` inside ``runner`` (wrapped by DistributedDataParallel or not)."""
+    return runner.module if isinstance(runner, nn.parallel.DistributedDataParallel) else runner
 
 
 def _set_lr(optimizer, cfg: TrainConfig, step: int) -> None:
@@ -219,16 +224,16 @@ def _set_lr(optimizer, cfg: TrainConfig, step: int) -> None:
         group["lr"] = lr
 
 
-def _open_data(cfg: TrainConfig, world, progress: bool):
+def _open_data(cfg: TrainConfig, world, progress: bool, hr_buffers: tuple[str, ...]):
     """Training windows (rank 0 builds the decoded cache, the others then open it) and rank 0's validation windows."""
     if world.is_main:
-        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, progress)
+        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, progress, hr_buffers)
     distributed.barrier(world)
     if not world.is_main:
-        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, False)
+        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, False, hr_buffers)
     val = None
     if world.is_main and cfg.val_dirs():
-        val = open_windows(cfg, cfg.val_dirs(), cfg.val_crop, progress)
+        val = open_windows(cfg, cfg.val_dirs(), cfg.val_crop, progress, hr_buffers)
     return windows, val
 
 

@@ -26,10 +26,8 @@ import torch.nn.functional as F
 from torch import nn
 
 from ..metrics.image import psnr_torch
-from ..model.layers import avgpool, extract_samples, upsample_motion, warp_bilinear
-from .losses import MNSSLoss
-
-TERMS = ("total", "ssim", "perceptual", "aa", "flicker")
+from ..model.layers import upsample_motion, warp_bilinear
+from ..model.families import family_of
 
 
 def frame_at(batch: dict[str, torch.Tensor], t: int) -> dict[str, torch.Tensor]:
@@ -72,11 +70,11 @@ class WindowChunk(nn.Module):
 
     ``forward`` returns the chunk's loss (summed frame losses / ``loss_frames``,
     so the chunks of a window add up to the mean frame loss), its terms as a
-    detached ``(5,)`` tensor in ``TERMS`` order (same normalisation), and the
+    detached tensor in ``loss.terms`` order (same normalisation), and the
     state and crop-validity mask (or None when not masking) after frame ``t1 - 1``.
     """
 
-    def __init__(self, model: nn.Module, loss: MNSSLoss):
+    def __init__(self, model: nn.Module, loss: nn.Module):
         super().__init__()
         self.model = model
         self.loss = loss
@@ -84,25 +82,24 @@ class WindowChunk(nn.Module):
     def forward(self, batch: dict[str, torch.Tensor], t0: int, t1: int, state: dict, valid: torch.Tensor | None,
                 gt_history: bool, loss_frames: int, mask_crop: bool = True):
         total = batch["reference"].new_zeros(())
-        terms = batch["reference"].new_zeros(len(TERMS))
-        scale = self.loss.scale
+        terms = batch["reference"].new_zeros(len(self.loss.terms))
+        scale = self.model.scale
         prev_error = None  # the flicker term pairs consecutive frames of this chunk
         for t in range(t0, t1):
-            frame, state = _next_input(batch, t, state, gt_history)
+            frame, state = _next_input(self.model, batch, t, state, gt_history)
             output, aux, state = self.model(frame, state)
-            reference, aa = batch["reference"][:, t], aux["aa"]
+            reference = batch["reference"][:, t]
             if mask_crop:
                 valid = crop_validity(valid, frame, scale)
                 output = torch.where(valid, output, reference)
-                aa = torch.where(avgpool(valid.to(aa.dtype), scale) > 0.999, aa, extract_samples(reference, frame["jitter"], scale))
             error = output - reference
             flicker = None
             if prev_error is not None and self.loss.flicker_weight > 0:
                 flicker = self.loss.flicker(error, prev_error, frame["motion"], frame.get("reset"))
             prev_error = error
-            parts = self.loss(output, aa, reference, frame["jitter"], flicker)
+            parts = self.loss(output, aux, frame, reference, valid if mask_crop else None, flicker)
             total = total + parts["total"]
-            terms = terms + torch.stack([parts[k].detach() for k in TERMS])
+            terms = terms + torch.stack([parts[k].detach() for k in self.loss.terms])
         return total / loss_frames, terms / loss_frames, state, valid
 
 
@@ -117,17 +114,19 @@ def burn_in(model: nn.Module, batch: dict[str, torch.Tensor], frames: int, gt_hi
     state = model.initial_state(frame_at(batch, 0))
     valid = None
     for t in range(frames):
-        frame, state = _next_input(batch, t, state, gt_history)
+        frame, state = _next_input(model, batch, t, state, gt_history)
         _, _, state = model(frame, state)
         if mask_crop:
             valid = crop_validity(valid, frame, model.scale)
     return state, valid
 
 
-def _next_input(batch: dict[str, torch.Tensor], t: int, state: dict, gt_history: bool) -> tuple[dict, dict]:
-    """Frame ``t`` and the state it starts from (the reference of frame ``t - 1`` as history when ``gt_history``)."""
-    if gt_history and t > 0:
-        state = {**state, "history": batch["reference"][:, t - 1]}
+def _next_input(model: nn.Module, batch: dict[str, torch.Tensor], t: int, state: dict, gt_history: bool) -> tuple[dict, dict]:
+    """Frame ``t`` and the state it starts from (the reference of frame ``t - 1`` as the family's
+    ``history_state`` when ``gt_history``)."""
+    key = family_of(model).history_state
+    if gt_history and t > 0 and key is not None:
+        state = {**state, key: batch["reference"][:, t - 1]}
     return frame_at(batch, t), state
 
 
@@ -135,10 +134,11 @@ def _next_input(batch: dict[str, torch.Tensor], t: int, state: dict, gt_history:
 def validate(model: nn.Module, windows, indices: list[int], skip: int = 0) -> tuple[dict[str, float], dict[str, torch.Tensor]]:
     """Mean PSNR (dB) over the frames after the first ``skip`` of the given windows, the model running on its own history.
 
-    Also reports the PSNR of ``I_U`` (the jittered upsample of the LR frame, no
-    history), the floor the model must beat.  Returns scalars and, for the last
-    frame of the first window, the output, reference and ``I_U`` images (3, H, W).
+    Also reports the PSNR of the family's ``floor_output`` (for MNSS ``I_U``, the jittered
+    upsample of the LR frame, no history), the floor the model must beat.  Returns scalars and,
+    for the last frame of the first window, the output, reference and floor images (3, H, W).
     """
+    floor = family_of(model).floor_output
     was_training = model.training
     model.eval()
     psnr_out, psnr_up, images = [], [], {}
@@ -151,9 +151,14 @@ def validate(model: nn.Module, windows, indices: list[int], skip: int = 0) -> tu
             if t < skip:
                 continue
             psnr_out.append(psnr_torch(output, reference))
-            psnr_up.append(psnr_torch(aux["upsampled"].clamp(0.0, 1.0), reference))
+            if floor is not None:
+                psnr_up.append(psnr_torch(aux[floor].clamp(0.0, 1.0), reference))
         if not images:
-            images = {"val/output": output[0], "val/reference": reference[0], "val/upsampled": aux["upsampled"][0]}
+            images = {"val/output": output[0], "val/reference": reference[0]}
+            if floor is not None:
+                images[f"val/{floor}"] = aux[floor][0]
     model.train(was_training)
-    scalars = {"val/psnr": float(torch.cat(psnr_out).mean()), "val/psnr_upsampled": float(torch.cat(psnr_up).mean())}
+    scalars = {"val/psnr": float(torch.cat(psnr_out).mean())}
+    if floor is not None:
+        scalars[f"val/psnr_{floor}"] = float(torch.cat(psnr_up).mean())
     return scalars, images

@@ -1,7 +1,8 @@
 """The frame loop: GPU passes -> NPU graph -> GPU passes, history carried between frames.
 
-A bundle is assembled in memory (:class:`BundleSpec`): GPU weights drawn at random, the NPU
-graph of ``test_frame_loop_npu.recon_graph`` at the synthetic dataset's output size.
+A bundle is assembled in memory (:class:`BundleSpec`): GPU weights drawn at random, the MNSS
+family's plan (resources and schedule) around them, and the NPU graph of
+``test_frame_loop_npu.recon_graph`` at the synthetic dataset's output size.
 """
 
 from __future__ import annotations
@@ -15,12 +16,14 @@ from test_frame_loop_npu import recon_files
 from mnss_kit.dataset.format import read_meta
 from mnss_kit.emulate.bundle import BundleSpec
 from mnss_kit.emulate.frame_loop import Emulator
-from mnss_kit.model.config import aa_input_channels
+from mnss_kit.model.mnss.config import aa_input_channels
 from mnss_kit.emulate.npu_graph import read_npu_graph
 from mnss_kit.emulate.sequence import sequence_frames
 from mnss_kit.errors import UserError
-from mnss_kit.gpu.schedule import GpuStage, NpuBoundary
-from mnss_kit.gpu.weights import Conv3x3, GpuWeights
+from mnss_kit.model.mnss import gpu_plan
+from mnss_kit.model.mnss.gpu_stage import GpuStage
+from mnss_kit.gpu.weights import Conv3x3
+from mnss_kit.model.mnss.gpu_stage import GpuWeights
 
 LR_SIZE = (32, 24)  # tests/conftest.py SYNTHETIC_LR_SIZE
 
@@ -37,8 +40,12 @@ def make_spec(seed: int = 0, with_history: bool = True) -> BundleSpec:
     tflite, onnx = recon_files(LR_SIZE[1] * 2, LR_SIZE[0] * 2, seed=seed)
     graph = read_npu_graph(tflite)
     (si, zi), (so, zo) = graph.tensors["x"].qparams(), graph.tensors["y"].qparams()
-    boundary = NpuBoundary(float(si), zi, float(so), zo, "tflite_reference")
-    return BundleSpec("in-memory bundle", graph, tflite, onnx, stage, boundary, "x", "y", LR_SIZE)
+    npu = {"model": "npu.tflite", "input": "x", "output": "y", "input_q": (float(si), zi), "output_q": (float(so), zo)}
+    boundary = [{"role": role, "tensor": t, "direction": d, "scale": float(q), "buffer": {"resource": role}}
+                for role, t, d, q in (("npu_input", "x", "gpu->npu", si), ("npu_output", "y", "npu->gpu", so))]
+    manifest = {"scale": 2, "lr_size": list(LR_SIZE), "golden": {"profile": "tflite_reference"}, "boundary": boundary,
+                "resources": gpu_plan.resources(stage, LR_SIZE), "schedule": gpu_plan.schedule(stage, LR_SIZE, npu, "tflite_reference")}
+    return BundleSpec("in-memory bundle", graph, tflite, onnx, manifest, dict(gpu_plan.weight_blocks(stage)))
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +56,7 @@ def spec():
 def frames_of(root, name, count):
     """``count`` recurrent frames of one synthetic sequence, cycling past its end without a reset."""
     seq = root / name
-    frames = [f for _, f, _ in sequence_frames(seq, read_meta(seq), None)]
+    frames = [f for _, f, _ in sequence_frames(seq, read_meta(seq), None, ["color", "depth", "motion"])]
     out = [dict(frames[i % len(frames)]) for i in range(count)]
     for i, frame in enumerate(out):
         frame["reset"] = i == 0
@@ -63,7 +70,7 @@ def test_litert_and_numpy_npu_backends_agree_over_twelve_recurrent_frames(spec, 
         results = {b: e.run_frame(frame) for b, e in emulators.items()}
         a, b = results["numpy"], results["litert"]
         assert np.array_equal(a.npu_output, b.npu_output), f"frame {t}: NPU output differs"
-        assert np.array_equal(a.display, b.display) and np.array_equal(a.output, b.output), f"frame {t}"
+        assert np.array_equal(a.display, b.display) and np.array_equal(a.state["history"], b.state["history"]), f"frame {t}"
         assert a.display.shape == (48, 64, 3) and a.display.dtype == np.uint8
 
 
@@ -74,11 +81,11 @@ def test_history_is_carried_and_reset_clears_it(spec, synthetic_dataset):
         with_history = emulator.run_frame(frame)
     emulator.reset()
     without = emulator.run_frame(frames[-1])
-    assert not np.array_equal(with_history.output, without.output)
+    assert not np.array_equal(with_history.state["history"], without.state["history"])
     # a reset flag in the frame does the same as reset()
     emulator.run_frame(frames[0])
     flagged = emulator.run_frame(dict(frames[-1], reset=True))
-    assert np.array_equal(flagged.output, without.output)
+    assert np.array_equal(flagged.state["history"], without.state["history"])
 
 
 def test_every_named_tensor_in_execution_order(spec, synthetic_dataset):
@@ -87,7 +94,8 @@ def test_every_named_tensor_in_execution_order(spec, synthetic_dataset):
     first = emulator.run_frame(frames[0], keep_all=True)
     second = emulator.run_frame(frames[1], keep_all=True)
     npu_names = spec.graph.execution_order()
-    assert list(second.tensors) == ["color", "depth", "motion", "warped", "lr_weight", "rectified", "aa", *npu_names, "history", "display"]
+    gpu_before = ["warped", "warped_depth", "lr_weight", "rectified", "aa_input", "aa_hidden_0", "aa", "npu_input"]
+    assert list(second.tensors) == ["color", "depth", "motion", *gpu_before, *npu_names, "history", "display"]
     assert "warped" not in first.tensors  # skipped on a reset frame
     entry = second.entries["head"]
     assert entry.dtype == "int8" and entry.stage == "npu"
@@ -127,7 +135,7 @@ def test_bad_frames_are_user_errors(spec, synthetic_dataset):
 
 def test_data_of_another_size_is_a_user_error(tmp_path, synthetic_dataset):
     spec = make_spec()
-    spec.lr_size = (16, 12)
+    spec.manifest["lr_size"] = [16, 12]
     with pytest.raises(UserError, match="lr_size"):
         Emulator(spec).run_sequence(synthetic_dataset / "pan")
 

@@ -59,7 +59,7 @@ def root(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def frames(root) -> list[dict]:
     seq = root / "data" / "pan"
-    return [f for _, f, _ in sequence_frames(seq, read_meta(seq), None)]
+    return [f for _, f, _ in sequence_frames(seq, read_meta(seq), None, ["color", "depth", "motion"])]
 
 
 @pytest.fixture
@@ -88,7 +88,7 @@ def test_golden_frames_reproduced_bit_exactly(root, npu_backend):
     emulator = Emulator(bundle, profile, npu_backend)
     for t, (inputs, expected) in enumerate(golden_inputs(bundle)):
         result = emulator.run_frame(inputs, keep_all=True)
-        assert np.array_equal(result.tensors[emulator.spec.npu_input], expected["npu_input"]), f"frame {t} npu_input"
+        assert np.array_equal(result.tensors[emulator.spec.boundary("gpu->npu")["tensor"]], expected["npu_input"]), f"frame {t} npu_input"
         assert np.array_equal(result.npu_output, expected["npu_output"]), f"frame {t} npu_output"
         assert np.array_equal(result.display, expected["display"]), f"frame {t} display"
 
@@ -119,7 +119,7 @@ def test_wrong_profile_is_detected(root, frames):
         runs = [lit.run_frame(f, keep_all=True) for f in frames]
         for other in LITERT_PROFILES:
             npu = Emulator(root / "bundle", other, "numpy")
-            name_in = npu.spec.npu_input
+            name_in = npu.spec.boundary("gpu->npu")["tensor"]
             bad = 0
             for r in runs:
                 out = npu.npu.run({name_in: r.tensors[name_in]}, keep_all=True)

@@ -176,9 +176,10 @@ def test_fast_gpu_conv3x3_in_blocks_of_rows_equals_reference(monkeypatch, rows):
 def test_fast_gpu_passes_equal_reference_on_a_frame_sequence():
     """The whole GPU stage (inpainting weights included) through the fast passes, frame after frame."""
     from mnss_kit.emulate.fast_gpu import FastReferencePasses
-    from mnss_kit.gpu import schedule
+    from mnss_kit.model.mnss import gpu_stage as schedule
     from mnss_kit.gpu.reference import ReferencePasses
-    from mnss_kit.gpu.weights import Conv3x3, GpuWeights
+    from mnss_kit.gpu.weights import Conv3x3
+    from mnss_kit.model.mnss.gpu_stage import GpuWeights
 
     rng = np.random.default_rng(5)
     h, w, s = 10, 14, 2

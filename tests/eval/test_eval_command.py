@@ -5,7 +5,7 @@ import torch
 
 from mnss_kit.cli import main
 from mnss_kit.model import checkpoint
-from mnss_kit.model.config import ModelConfig
+from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model
 
 
@@ -18,7 +18,7 @@ def checkpoint_file(tmp_path):
 
     def write(scale=2):
         torch.manual_seed(0)
-        model = build_model(ModelConfig(scale=scale, **TINY))
+        model = build_model(MNSSConfig(scale=scale, **TINY))
         return checkpoint.save(tmp_path / f"tiny_x{scale}.pt", model, {"jitter_pattern": "mnss"})
 
     return write

@@ -14,7 +14,7 @@ from mnss_kit.dataset.synthetic import write_synthetic_sequence
 from mnss_kit.export.check import check_bundle
 from mnss_kit.export.pipeline import ExportRequest, export
 from mnss_kit.model import checkpoint
-from mnss_kit.model.config import ModelConfig
+from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model, randomise_convs
 
 VARIANTS = {
@@ -29,7 +29,7 @@ def test_variant_bundle_checks_and_replays(variant, synthetic_dataset, tmp_path)
     from mnss_kit.gpu.mesa import create_context
 
     torch.manual_seed(1)
-    model = build_model(ModelConfig(**{"scale": 2, "recon_width": 8, "aa_width": 8, **VARIANTS[variant]})).eval()
+    model = build_model(MNSSConfig(**{"scale": 2, "recon_width": 8, "aa_width": 8, **VARIANTS[variant]})).eval()
     randomise_convs(model, prefixes=("",))
     ckpt = checkpoint.save(tmp_path / f"{variant}.pt", model, {"jitter_pattern": "mnss"})
     data, size = synthetic_dataset, "64x48"

@@ -100,11 +100,9 @@ def test_command_choices_mirror_their_sources():
     from mnss_kit.export import command
     from mnss_kit.export.golden import PROFILE_RESOLVERS
     from mnss_kit.quantize.command import METHODS
-    from mnss_kit.split.plan import PLACEMENTS
 
     assert command.PROFILES == tuple(PROFILE_RESOLVERS)
     assert command.METHODS == METHODS
-    assert command.PLACEMENTS == PLACEMENTS
 
 
 def test_a_run_directory_named_like_a_shipped_model_does_not_hide_it(tmp_path, monkeypatch):

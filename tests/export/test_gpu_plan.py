@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from mnss_kit.export import gpu_plan
+from mnss_kit.model.mnss import gpu_plan
 from mnss_kit.gpu.passes import PASSES
-from mnss_kit.gpu.schedule import GpuStage
+from mnss_kit.model.mnss.gpu_stage import GpuStage
 from mnss_kit.gpu.weights import layers_of
 from mnss_kit.model.config import load_model_config
 from mnss_kit.model.families import build_model

@@ -46,7 +46,7 @@ def _emulator(bundle):
 
 
 def _tolerance_db(emulator) -> float:
-    step = float(emulator.spec.boundary.output_scale)
+    step = float(emulator.spec.boundary("npu->gpu")["scale"])
     return 20.0 * math.log10(1.0 / (ERROR_STEPS * step))
 
 

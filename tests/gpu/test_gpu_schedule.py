@@ -12,9 +12,9 @@ import numpy as np
 from gpu_helpers import assert_float_close, pattern_jitters, random_conv
 
 from mnss_kit.gpu.reference import to_half
-from mnss_kit.gpu.schedule import GpuStage, NpuBoundary, after_npu, before_npu, next_state
-from mnss_kit.gpu.weights import GpuWeights
-from mnss_kit.model.config import aa_input_channels
+from mnss_kit.model.mnss.gpu_stage import GpuStage, NpuBoundary, after_npu, before_npu, next_state
+from mnss_kit.model.mnss.gpu_stage import GpuWeights
+from mnss_kit.model.mnss.config import aa_input_channels
 
 GPU_PACKAGE = Path(__file__).resolve().parents[2] / "mnss_kit" / "gpu"
 

@@ -19,7 +19,7 @@ import torch
 from gpu_helpers import pattern_jitters
 
 from mnss_kit.gpu.reference import ReferencePasses, encode_unorm8, to_half
-from mnss_kit.gpu.schedule import GpuStage, NpuBoundary, after_npu, before_npu
+from mnss_kit.model.mnss.gpu_stage import GpuStage, NpuBoundary, after_npu, before_npu
 from mnss_kit.model.config import load_model_config
 from mnss_kit.model.families import build_model
 from mnss_kit.ops import quant

@@ -2,7 +2,7 @@ import pytest
 import torch
 
 from model_helpers import TINY, randomise
-from mnss_kit.model.config import ModelConfig
+from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model
 
 
@@ -10,6 +10,6 @@ from mnss_kit.model.families import build_model
 def tiny_model():
     def build(**overrides):
         torch.manual_seed(0)
-        return randomise(build_model(ModelConfig(**{**TINY, **overrides}))).eval()
+        return randomise(build_model(MNSSConfig(**{**TINY, **overrides}))).eval()
 
     return build

@@ -6,7 +6,7 @@ import torch
 from model_helpers import TINY, make_frame, randomise
 from mnss_kit.errors import UserError
 from mnss_kit.model import checkpoint
-from mnss_kit.model.config import ModelConfig
+from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model
 
 RECORD = {"jitter_pattern": "mnss", "data_fingerprint": "abc123", "training": {"steps": 10, "loss": 0.5}}
@@ -14,7 +14,7 @@ RECORD = {"jitter_pattern": "mnss", "data_fingerprint": "abc123", "training": {"
 
 @pytest.fixture
 def model():
-    return randomise(build_model(ModelConfig(scale=3, recon_resolution="hr", **TINY))).eval()
+    return randomise(build_model(MNSSConfig(scale=3, recon_resolution="hr", **TINY))).eval()
 
 
 @pytest.fixture

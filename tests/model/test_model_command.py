@@ -5,7 +5,8 @@ import json
 from model_helpers import TINY
 from mnss_kit import cli
 from mnss_kit.model import checkpoint
-from mnss_kit.model.config import ModelConfig, config_names
+from mnss_kit.model.config import config_names
+from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model
 
 
@@ -19,7 +20,7 @@ def test_lists_configs_when_nothing_is_shipped(tmp_path, monkeypatch, capsys):
 
 def test_lists_a_shipped_checkpoint(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(checkpoint, "ZOO_DIR", tmp_path)
-    checkpoint.save(tmp_path / "mnss_x2.pt", build_model(ModelConfig(**TINY)), {"jitter_pattern": "mnss"})
+    checkpoint.save(tmp_path / "mnss_x2.pt", build_model(MNSSConfig(**TINY)), {"jitter_pattern": "mnss"})
     assert cli.main(["models", "--json"]) == 0
     listing = json.loads(capsys.readouterr().out)
     assert [row["name"] for row in listing["checkpoints"]] == ["mnss_x2"]

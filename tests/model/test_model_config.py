@@ -3,12 +3,13 @@
 import pytest
 
 from mnss_kit.errors import UserError
-from mnss_kit.model.config import ModelConfig, config_names, load_model_config
+from mnss_kit.model.config import config_names, load_model_config
+from mnss_kit.model.mnss.config import MNSSConfig
 
 
 @pytest.mark.parametrize("name", config_names())
 def test_shipped_configs_load(name):
-    assert isinstance(load_model_config(name), ModelConfig)
+    assert isinstance(load_model_config(name), MNSSConfig)
 
 
 def test_ladder_exists():

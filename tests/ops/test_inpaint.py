@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from mnss_kit.model.mnss import Inpaint
+from mnss_kit.model.mnss.net import Inpaint
 from mnss_kit.ops import inpaint, subpixel
 from mnss_kit.ops.jitter import jitter_sequence
 

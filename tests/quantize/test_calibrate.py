@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 import torch
 
+from mnss_kit.model.mnss.config import MNSSConfig
+
 from mnss_kit.errors import UserError
 from mnss_kit.ops import quant as Q
 from mnss_kit.quantize.calibrate import InputRecorder, calibrate, mse_range
@@ -63,9 +65,14 @@ def test_calibration_samples_come_from_recurrent_runs_of_every_sequence():
     class Model(torch.nn.Module):
         """Toy recurrent model: the NPU stage sees the previous output, as MNSS's recon does."""
 
+        config = MNSSConfig()  # the family record names the NPU stage: recon
+
         def __init__(self):
             super().__init__()
             self.recon = torch.nn.Conv2d(3, 3, 1)
+
+        def stages(self):
+            return [("recon", self.recon, "npu")]
 
         def forward(self, frame, state):
             history = torch.zeros_like(frame["color"]) if state is None else state["history"]

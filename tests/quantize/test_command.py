@@ -11,7 +11,7 @@ from mnss_kit import cli
 from mnss_kit.dataset import format as fmt
 from mnss_kit.dataset.synthetic import write_synthetic_sequence
 from mnss_kit.model import checkpoint
-from mnss_kit.model.config import ModelConfig
+from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model, randomise_convs
 from mnss_kit.quantize.command import sample_frames
 
@@ -21,7 +21,7 @@ TINY = dict(scale=2, recon_width=8, recon_layers=3, aa_width=4, aa_layers=1)
 @pytest.fixture(scope="module")
 def tiny_checkpoint(tmp_path_factory):
     torch.manual_seed(0)
-    model = build_model(ModelConfig(**TINY))
+    model = build_model(MNSSConfig(**TINY))
     randomise_convs(model, prefixes=("",))  # a fresh model's last conv is zero: give every layer something to quantize
     return checkpoint.save(tmp_path_factory.mktemp("ckpt") / "tiny.pt", model, {"jitter_pattern": "mnss"})
 

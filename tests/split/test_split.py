@@ -8,7 +8,7 @@ import torch
 
 from mnss_kit.cli import main
 from mnss_kit.errors import UserError
-from mnss_kit.model.config import ModelConfig
+from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model
 from mnss_kit.split.dataflow import StageFlow, TensorInfo, trace_model
 from mnss_kit.split.device import device_from_dict, device_names, load_device
@@ -42,18 +42,12 @@ def profile(**changes):
 @pytest.fixture(scope="module")
 def flow():
     torch.manual_seed(0)
-    model = build_model(ModelConfig(recon_width=4, recon_layers=2, aa_width=4, aa_layers=2)).eval()
+    model = build_model(MNSSConfig(recon_width=4, recon_layers=2, aa_width=4, aa_layers=2)).eval()
     return trace_model(model)
 
 
 def placed(plan):
     return {s.name: s.placement for s in plan.stages}
-
-
-def test_cli_choices_match_the_planner():
-    from mnss_kit.split.command import PLACEMENT_CHOICES
-
-    assert PLACEMENT_CHOICES == PLACEMENTS
 
 
 def test_shipped_profiles_load():
@@ -207,7 +201,7 @@ def test_bad_device_file_is_a_user_error(tmp_path):
 
 
 def test_split_model_api_and_cli(tmp_path, capsys):
-    model = build_model(ModelConfig(recon_width=4, recon_layers=2, aa_width=4, aa_layers=2)).eval()
+    model = build_model(MNSSConfig(recon_width=4, recon_layers=2, aa_width=4, aa_layers=2)).eval()
     plan = split_model(model, load_device("helio_g99"), "auto", (640, 360))
     assert plan.npu_stages() == [] and plan.resolution == [640, 360]
     out = tmp_path / "plan.json"

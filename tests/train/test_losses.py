@@ -7,7 +7,8 @@ import torch
 
 from mnss_kit.metrics.image import ssim
 from mnss_kit.ops.subpixel import extract_samples as extract_samples_reference
-from mnss_kit.train.losses import MNSSLoss, laplacian_pyramid, pyramid_loss
+from mnss_kit.model.losses import laplacian_pyramid, pyramid_loss
+from mnss_kit.model.mnss.loss import MNSSLoss
 
 
 def _images(seed: int = 0, shape=(2, 3, 24, 32)):
@@ -43,9 +44,9 @@ def test_mnss_loss_terms():
         for i in range(2)
     ])
     loss = MNSSLoss(scale=2, perceptual_weight=0.1, aa_weight=5.0)
-    perfect = loss(reference, aa_exact, reference, jitter)
+    perfect = loss(reference, {"aa": aa_exact}, {"jitter": jitter}, reference)
     assert float(perfect["total"]) < 1e-6
-    parts = loss(output, aa_exact + 0.1, reference, jitter)
+    parts = loss(output, {"aa": aa_exact + 0.1}, {"jitter": jitter}, reference)
     np.testing.assert_allclose(float(parts["aa"]), 0.1, rtol=1e-5)
     np.testing.assert_allclose(float(parts["ssim"]), float(1 - ssim(output, reference).mean()), rtol=1e-6)
     expected = parts["ssim"] + 0.1 * parts["perceptual"] + 5.0 * parts["aa"]
@@ -56,7 +57,7 @@ def test_loss_gradients_reach_both_outputs():
     reference, start = _images(2)
     output = start.clone().requires_grad_(True)
     aa = torch.rand(2, 3, 12, 16, requires_grad=True)
-    MNSSLoss(scale=2)(output, aa, reference, torch.zeros(2, 2))["total"].backward()
+    MNSSLoss(scale=2)(output, {"aa": aa}, {"jitter": torch.zeros(2, 2)}, reference)["total"].backward()
     assert output.grad.abs().sum() > 0 and aa.grad.abs().sum() > 0
 
 
@@ -80,7 +81,7 @@ def test_flicker_weight_enters_the_total():
     aa = torch.rand(2, 3, 12, 16)
     jitter = torch.zeros(2, 2)
     flicker = torch.tensor(0.25)
-    off = MNSSLoss(scale=2)(output, aa, reference, jitter, flicker)
-    on = MNSSLoss(scale=2, flicker_weight=2.0)(output, aa, reference, jitter, flicker)
+    off = MNSSLoss(scale=2)(output, {"aa": aa}, {"jitter": jitter}, reference, None, flicker)
+    on = MNSSLoss(scale=2, flicker_weight=2.0)(output, {"aa": aa}, {"jitter": jitter}, reference, None, flicker)
     np.testing.assert_allclose(float(on["total"] - off["total"]), 0.5, rtol=1e-5)
     assert float(on["flicker"]) == 0.25

@@ -5,13 +5,13 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from mnss_kit.model.config import ModelConfig
+from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model
 from mnss_kit.train.config import TrainConfig
 from mnss_kit.train.distributed import World
-from mnss_kit.train.losses import MNSSLoss
+from mnss_kit.model.mnss.loss import MNSSLoss
 from mnss_kit.train.loop import _step
-from mnss_kit.train.recurrent import TERMS, WindowChunk, crop_validity, validate
+from mnss_kit.train.recurrent import WindowChunk, crop_validity, validate
 
 from train_helpers import TINY_MODEL
 
@@ -22,8 +22,8 @@ class StateSpy(nn.Module):
     def __init__(self):
         super().__init__()
         torch.manual_seed(0)
-        self.inner = build_model(ModelConfig(**TINY_MODEL))
-        self.scale = self.inner.scale
+        self.inner = build_model(MNSSConfig(**TINY_MODEL))
+        self.scale, self.config = self.inner.scale, self.inner.config
         self.seen: list[torch.Tensor] = []
         self.outputs: list[torch.Tensor] = []
 
@@ -89,7 +89,7 @@ def test_step_updates_weights_and_returns_terms():
     before = [p.detach().clone() for p in spy.parameters()]
     optimizer = torch.optim.Adam(spy.parameters(), lr=1e-2)
     terms = _step(TrainConfig(window=4), 0, spy, optimizer, WindowChunk(spy, MNSSLoss(2)), batch, World())
-    assert terms.shape == (len(TERMS),) and torch.isfinite(terms).all() and terms[0] > 0
+    assert terms.shape == (len(MNSSLoss.terms),) and torch.isfinite(terms).all() and terms[0] > 0
     assert any(not torch.equal(a, b) for a, b in zip(before, spy.parameters()))
 
 

@@ -25,8 +25,8 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from .config import ModelConfig, aa_input_channels
-from .layers import (
+from .config import MNSSConfig, aa_input_channels
+from ..layers import (
     avgpool,
     extract_samples,
     insert_samples,
@@ -37,8 +37,8 @@ from .layers import (
     upsample_motion,
     warp_bilinear,
 )
-from ..errors import UserError
-from ..ops.warp import OFFSCREEN_DEPTH
+from ...errors import UserError
+from ...ops.warp import OFFSCREEN_DEPTH
 
 STAGE_ORDER = ("warp", "inpaint", "aa", "insert", "recon", "enhance")
 FRAME_SHAPES = {"color": 3, "depth": 1, "motion": 2}  # LR buffers and their channel counts
@@ -213,7 +213,7 @@ class Enhance(nn.Module):
 class MNSS(nn.Module):
     """``model(frame, state) -> (output, aux, state)``; see the module docstring and docs/architecture.md."""
 
-    def __init__(self, config: ModelConfig):
+    def __init__(self, config: MNSSConfig):
         super().__init__()
         self.config = config
         self.scale = s = config.scale

@@ -18,25 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import UserError
-from ..model.config import ModelConfig
-from ..ops import quant
-from .weights import GpuWeights
-
-
-@dataclass(frozen=True)
-class NpuBoundary:
-    """The int8 tensors crossing to and from the NPU: ``real = scale * (q - zero_point)``, and the
-    numerics profile (``ops.quant.PROFILES``) whose QUANTIZE rounding the pack reproduces."""
-
-    input_scale: float
-    input_zero_point: int
-    output_scale: float
-    output_zero_point: int
-    profile: str = "tflite_reference"
-
-    def __post_init__(self):
-        quant.get_profile(self.profile)  # ValueError on an unknown name
+from ...errors import UserError
+from .config import MNSSConfig, aa_input_channels
+from ...ops import quant
+from ...gpu.plan import NpuBoundary
+from ...gpu.weights import Conv3x3
 
 
 @dataclass(frozen=True)
@@ -51,7 +37,7 @@ class GpuStage:
     weights: GpuWeights
 
     @classmethod
-    def from_model(cls, config: ModelConfig, state_dict: dict[str, np.ndarray]) -> "GpuStage":
+    def from_model(cls, config: MNSSConfig, state_dict: dict[str, np.ndarray]) -> "GpuStage":
         """From an MNSS config and its state dict (numpy values)."""
         if config.history == "lr_frame":
             raise UserError("the phone runtime keeps the model's output as history; history 'lr_frame' is not supported")
@@ -104,3 +90,41 @@ def after_npu(passes, stage: GpuStage, npu_output: np.ndarray, boundary: NpuBoun
 def next_state(frame: dict, history: np.ndarray) -> dict:
     """The state the next frame reads: this frame's output as history, its LR depth and jitter."""
     return {"history": history, "depth": frame["depth"], "jitter": np.asarray(frame["jitter"], np.float32)}
+
+
+@dataclass(frozen=True)
+class GpuWeights:
+    """``inpaint``: the inpainting conv, None without history; ``aa``: the AA net's convs in order."""
+
+    inpaint: Conv3x3 | None
+    aa: tuple[Conv3x3, ...]
+
+    @property
+    def aa_history_at_samples(self) -> bool:
+        """The AA net reads I_R at the sampled sub-pixels too (``model.config.aa_input_channels``)."""
+        return self.aa[0].in_channels == aa_input_channels(True)
+
+    @classmethod
+    def from_state_dict(cls, state: dict[str, np.ndarray]) -> "GpuWeights":
+        """From an MNSS state dict (numpy values), keys ``inpaint.conv.*`` and ``aa.net.<i>.*``."""
+
+        def conv(prefix: str) -> Conv3x3:
+            try:
+                weight, bias = state[prefix + ".weight"], state[prefix + ".bias"]
+            except KeyError as e:
+                raise UserError(f"model weights lack {e.args[0]}") from None
+            return Conv3x3(np.asarray(weight, np.float32), np.asarray(bias, np.float32))
+
+        inpaint = conv("inpaint.conv") if "inpaint.conv.weight" in state else None
+        indices = sorted({int(k.split(".")[2]) for k in state if k.startswith("aa.net.") and k.endswith(".weight")})
+        if not indices:
+            raise UserError("model weights lack the anti-aliasing net (aa.net.*)")
+        aa = tuple(conv(f"aa.net.{i}") for i in indices)
+        for first, second in zip(aa, aa[1:]):
+            if first.out_channels != second.in_channels:
+                raise UserError("anti-aliasing net layers do not chain (channel counts differ)")
+        paper, with_samples = aa_input_channels(False), aa_input_channels(True)
+        if aa[0].in_channels not in (paper, with_samples) or aa[-1].out_channels != 3:
+            raise UserError(f"anti-aliasing net must map {paper} channels (pooled history, colour) or {with_samples} "
+                            "(pooled history, history at the samples, colour) to 3")
+        return cls(inpaint, aa)

@@ -1,0 +1,70 @@
+"""What a model family is, as data: the one record every stage after ``model/`` asks.
+
+A family lives in its own folder under ``model/`` (``model/mnss/``) and is listed in
+``model.families.FAMILIES``.  Nothing outside that folder names one of its stages; the stages
+of the pipeline read what they need from the :class:`Family` record:
+
+    train     ``config``, ``build``, ``loss``, ``lr_inputs``/``hr_inputs`` (the dataset buffers
+              a frame carries), ``history_state`` and ``floor_output``
+    quantize  ``npu_stages``: the submodules traced into the int8 graph
+    split     ``npu_stages`` and ``placements`` (named placement modes of the family)
+    export    ``gpu_plan``: the GPU passes, resources, weights and per-frame schedule of a bundle
+    models    ``fixed_macs``: fixed-function GPU arithmetic per HR output pixel
+
+A model built by ``build`` follows the interface of docs/architecture.md:
+``model(frame, state) -> (output, aux, state)``, ``model.initial_state(frame)``,
+``model.stages()`` and ``model.scale``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from ..dataset.format import BUFFERS
+
+
+@dataclass(frozen=True)
+class Family:
+    name: str
+    config: type  # dataclass of the ``model:`` section (its ``family`` field names the family)
+    build: Callable[[Any], Any]  # config -> a freshly initialised torch model (imports torch when called)
+    loss: Callable[[Any, Any], Any]  # (model config, train config) -> loss module with ``terms``
+    lr_inputs: tuple[str, ...]  # LR buffers a frame carries (``color``, ``depth``, ``motion``, ...)
+    npu_stages: tuple[str, ...]  # stage names (``model.stages()``) traced into the int8 NPU graph
+    gpu_plan: Callable[..., dict]  # (config, numpy state dict, lr_size, npu, profile) -> bundle GPU plan
+    fixed_macs: Callable[[Any], dict[str, float]]  # config -> fixed-function MACs per HR pixel by stage
+    hr_inputs: tuple[str, ...] = ()  # HR G-buffers a frame carries as ``hr_<name>`` (e.g. ``fbeta``)
+    placements: dict[str, tuple[str, ...]] = field(default_factory=dict)  # mode -> GPU stages it moves to the NPU
+    history_state: str | None = None  # state key of the previous HR output (ground-truth history, crop masks)
+    floor_output: str | None = None  # aux key of the image the model must beat (validation), e.g. I_U
+    learned_prefixes: tuple[str, ...] = ()  # submodules whose convs ``randomise_convs`` fills
+
+    def frame_channels(self) -> dict[str, int]:
+        """Channels of every per-frame image input: the LR buffers, then ``hr_<name>``."""
+        out = {name: len(BUFFERS["lr"][name].channels) for name in self.lr_inputs}
+        out.update({f"hr_{name}": len(BUFFERS["hr"][name].channels) for name in self.hr_inputs})
+        return out
+
+    def dataset_buffers(self) -> dict[str, tuple[str, ...]]:
+        """The dataset buffers training and evaluation read, per resolution."""
+        return {"lr": self.lr_inputs, "hr": ("reference", *self.hr_inputs)}
+
+
+def example_frame(family: Family, h: int, w: int, scale: int, generator=None, still: bool = False) -> dict:
+    """One random batched frame of ``family``'s inputs at LR size ``h x w`` (torch; tracing and MAC counts).
+
+    Images are uniform in [0, 1), motion normal, jitter uniform in [-0.5, 0.5); ``still``: zero
+    motion and jitter (drawn from no generator).  ``generator`` None draws from torch's global one."""
+    import torch
+
+    frame = {}
+    for name, channels in family.frame_channels().items():
+        size = (h * scale, w * scale) if name.startswith("hr_") else (h, w)
+        if name.endswith("motion"):
+            frame[name] = torch.zeros(1, channels, *size) if still else torch.randn(1, channels, *size, generator=generator)
+        else:
+            frame[name] = torch.rand(1, channels, *size, generator=generator)
+    frame["jitter"] = torch.zeros(1, 2) if still else torch.rand(1, 2, generator=generator) - 0.5
+    frame["reset"] = torch.zeros(1)
+    return frame
