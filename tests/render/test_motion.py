@@ -9,14 +9,21 @@ from mnss_kit.ops.colour import to_display
 from mnss_kit.ops.warp import warp_bilinear
 
 
-def reprojected_motion(meta, depth: np.ndarray, f: int) -> np.ndarray:
-    """Motion (px, +y down, to previous) of static geometry from hardware depth and the meta matrices."""
+def previous_clip(meta, depth: np.ndarray, f: int) -> np.ndarray:
+    """(H, W, 4) previous-frame clip position of the static surface at each pixel (hardware depth, meta matrices)."""
     h, w = depth.shape
     cur = np.array(meta.frames[f].proj).reshape(4, 4) @ np.array(meta.frames[f].view).reshape(4, 4)
     prev = np.array(meta.frames[f - 1].proj).reshape(4, 4) @ np.array(meta.frames[f - 1].view).reshape(4, 4)
     ys, xs = np.mgrid[0:h, 0:w] + 0.5
     ndc = np.stack([xs / w * 2 - 1, 1 - ys / h * 2, depth * 2 - 1, np.ones_like(depth)], -1)
-    clip = ndc @ (prev @ np.linalg.inv(cur)).T
+    return ndc @ (prev @ np.linalg.inv(cur)).T
+
+
+def reprojected_motion(meta, depth: np.ndarray, f: int) -> np.ndarray:
+    """Motion (px, +y down, to previous) of static geometry from hardware depth and the meta matrices."""
+    h, w = depth.shape
+    ys, xs = np.mgrid[0:h, 0:w] + 0.5
+    clip = previous_clip(meta, depth, f)
     p = clip[..., :2] / clip[..., 3:]
     prev_px = np.stack([(p[..., 0] + 1) / 2 * w, (1 - p[..., 1]) / 2 * h], -1)
     return prev_px - np.stack([xs, ys], -1)
@@ -93,11 +100,7 @@ def test_points_behind_the_previous_camera_point_off_screen_and_the_jump_is_a_re
         renderer.release()
     depth, motion = hr["depth"][..., 0].astype(np.float64), hr["motion"]
     (w, h), surface = seq.hr_size, depth < 1.0
-    cur = np.array(meta.frames[4].proj).reshape(4, 4) @ np.array(meta.frames[4].view).reshape(4, 4)
-    prev = np.array(meta.frames[3].proj).reshape(4, 4) @ np.array(meta.frames[3].view).reshape(4, 4)
-    ys, xs = np.mgrid[0:h, 0:w] + 0.5
-    ndc = np.stack([xs / w * 2 - 1, 1 - ys / h * 2, depth * 2 - 1, np.ones_like(depth)], -1)
-    clip = ndc @ (prev @ np.linalg.inv(cur)).T
+    clip = previous_clip(meta, depth, 4)
     behind = surface & (clip[..., 2] < -clip[..., 3] - 1e-3)
     seen = surface & (clip[..., 2] > -clip[..., 3] + 1e-3)
     assert behind.mean() > 0.2
