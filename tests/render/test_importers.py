@@ -255,6 +255,37 @@ def test_glb_with_texture_in_buffer_view_and_material_factors(tmp_path):
     assert (m.alpha_mode, m.alpha_cutoff, m.double_sided, m.name) == ("mask", 0.25, True, "painted")
 
 
+def test_exporter_style_glb_with_several_meshes_materials_and_textures(tmp_path, caplog):
+    # What a game-level export looks like (no such file ships in a small registry package): one
+    # buffer shared by every mesh, a mesh of two primitives with different materials, two textures
+    # embedded as buffer views and shared between materials, a node hierarchy, a mesh without
+    # normals, and loose edges exported as a LINES primitive.
+    gltf = GltfBuilder()
+    bricks, moss = (gltf.texture({"bufferView": gltf.view(png_bytes(image)), "mimeType": "image/png"})
+                    for image in (CHECKER, CHECKER[::-1].copy()))
+    wall, floor, trim = (gltf.material(name=name, pbrMetallicRoughness={"baseColorTexture": {"index": t}})
+                         for name, t in (("wall", bricks), ("floor", moss), ("trim", bricks)))
+    uvs = gltf.accessor(QUAD[:, :2].copy())
+    house = gltf.mesh(material=wall, node={"translation": [10, 0, 0]})
+    second = {"attributes": {"POSITION": gltf.accessor(QUAD + [0, 0, 1]), "TEXCOORD_0": uvs},
+              "indices": gltf.accessor(QUAD_INDICES, USHORT), "material": trim}  # fmt: skip
+    gltf.doc["meshes"][-1]["primitives"].append(second)
+    gltf.doc["meshes"][-1]["primitives"][0]["attributes"]["TEXCOORD_0"] = uvs
+    ground = gltf.mesh(material=floor, normals=False, node={"scale": [50, 50, 1]})
+    gltf.doc["nodes"][house]["children"] = [ground]
+    gltf.doc["scenes"][0]["nodes"].remove(ground)  # the ground hangs below the house node
+    gltf.mesh(mode=1, normals=False)  # loose edges
+    with caplog.at_level(logging.WARNING):
+        meshes = load_meshes(gltf.write_glb(tmp_path / "level.glb"))
+    assert [m.material.name for m in meshes] == ["wall", "trim", "floor"]
+    assert meshes[0].material.base_color_texture is meshes[1].material.base_color_texture  # one decode per image
+    np.testing.assert_array_equal(meshes[2].material.base_color_texture, CHECKER[::-1])
+    np.testing.assert_allclose(meshes[2].positions, QUAD * [50, 50, 1] + [10, 0, 0])  # parent transform baked
+    np.testing.assert_allclose(meshes[2].normals, np.tile(UP, (4, 1)), atol=1e-6)  # computed for the ground
+    messages = warnings_from(caplog)
+    assert len([m for m in messages if "mode 1" in m]) == 1 and all("level.glb" in m for m in messages)
+
+
 def test_gltf_default_material_follows_the_specification(tmp_path):
     gltf = GltfBuilder()
     gltf.mesh()
