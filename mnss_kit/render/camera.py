@@ -21,7 +21,12 @@ optionally ``roll`` (degrees) and ``fov``.  Between keyframes the position,
 angles and fov follow a cubic Hermite spline with finite-difference
 (Catmull-Rom) tangents, so motion is smooth.  ``cut: true`` starts a new shot:
 keyframes before it are not used after it, and the first frame at or after
-its time is flagged ``reset`` in the dataset.
+its time is flagged ``reset`` in the dataset.  A frame is also flagged ``reset``
+when the camera jumped so far since the previous frame that the point it looks at
+lay outside the previous view (``view_jumped``: a whip pan or a fast pan squeezed
+into one frame): most of such a frame has no history, as after a cut.  The point
+looked at is ``look_at`` (its distance is interpolated as 1 / distance), or the
+view axis at infinity for ``yaw``/``pitch`` keyframes.
 """
 
 from __future__ import annotations
@@ -62,6 +67,7 @@ class CameraState:
     pitch: float
     roll: float
     fov: float  # vertical, degrees
+    inverse_focus: float = 0.0  # 1 / distance of the point looked at (0: the view axis at infinity)
 
     def view(self) -> np.ndarray:
         return view_matrix(self.position, self.yaw, self.pitch, self.roll)
@@ -122,6 +128,18 @@ def jittered(proj: np.ndarray, jitter, size: tuple[int, int]) -> np.ndarray:
     return shift @ proj
 
 
+def view_jumped(prev: CameraState, cur: CameraState, aspect: float) -> bool:
+    """The point ``cur`` looks at lay outside ``prev``'s frame, or behind ``prev``: the camera turned
+    by more than half the field of view, or moved the point looked at off the image, in one frame.
+    The motion of most pixels then leaves the image (no history), which is what a cut means to an upscaler."""
+    forward = -cur.view()[2, :3]
+    focus = np.append(cur.position * cur.inverse_focus + forward, cur.inverse_focus)  # homogeneous; w = 0 at infinity
+    clip = perspective(prev.fov, aspect, 1.0, 2.0) @ prev.view() @ focus
+    if clip[3] <= 0.0:
+        return True
+    return bool(max(abs(clip[0]), abs(clip[1])) > clip[3])
+
+
 class CameraPath:
     """Keyframed camera; ``state(t)`` is a pure function of time."""
 
@@ -143,8 +161,10 @@ class CameraPath:
 
     @staticmethod
     def _values(k: KeyframeConfig, default_fov: float, shot, source: str) -> list[float]:
+        inverse_focus = 0.0
         if k.look_at is not None:
             yaw, pitch = yaw_pitch_towards(k.position, k.look_at)
+            inverse_focus = 1.0 / float(np.linalg.norm(np.subtract(k.look_at, k.position)))
         elif k.yaw is not None and k.pitch is not None:
             yaw, pitch = k.yaw, k.pitch
         else:
@@ -155,7 +175,7 @@ class CameraPath:
         fov = default_fov if k.fov is None else k.fov
         if not 1.0 <= fov <= 170.0:
             raise UserError(f"{source}: fov {fov} out of range (1..170 degrees)")
-        return [*map(float, k.position), yaw, pitch, float(k.roll), fov]
+        return [*map(float, k.position), yaw, pitch, float(k.roll), fov, inverse_focus]
 
     def _close(self, shot) -> None:
         times = np.array([t for t, _ in shot])
@@ -168,11 +188,15 @@ class CameraPath:
             if t >= shot[0]:
                 start, times, values = shot
         v = _hermite(times, values, t)
-        return CameraState(v[:3], float(v[3]), float(v[4]), float(v[5]), float(v[6]))
+        return CameraState(v[:3], float(v[3]), float(v[4]), float(v[5]), float(v[6]), max(float(v[7]), 0.0))
 
     def is_cut(self, t_prev: float, t: float) -> bool:
         """A shot starts in ``(t_prev, t]``."""
         return any(t_prev < c <= t for c in self.cut_times)
+
+    def breaks_history(self, t_prev: float, t: float, aspect: float) -> bool:
+        """The frame at ``t`` is a ``reset``: a cut, or a turn out of the view of the frame at ``t_prev``."""
+        return self.is_cut(t_prev, t) or view_jumped(self.state(t_prev), self.state(t), aspect)
 
     @classmethod
     def from_config(cls, cfg: CameraPathConfig, source: str = "camera path") -> "CameraPath":

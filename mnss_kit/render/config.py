@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 from ..config import CONFIG_DIR, apply_overrides, from_dict, read_yaml, resolve_config_path
@@ -72,6 +72,9 @@ class SequenceConfig:
         return self.scene in BUILTIN_SCENES
 
 
+SEQUENCE_KEYS = frozenset(f.name for f in fields(SequenceConfig))
+
+
 @dataclass
 class RenderConfig:
     sequences: list[SequenceConfig]
@@ -101,8 +104,12 @@ def load_render_config(name_or_path: str, overrides: list[str] | None = None) ->
     names = [s.get("name") for s in merged]
     for item in overrides or []:
         key = item.split("=", 1)[0]
-        head = key.split(".", 1)[0]
-        if "." in key and head in names:
+        head, _, field_name = key.rpartition(".")
+        if field_name not in SEQUENCE_KEYS:
+            raise UserError(f"{source}: --set {key}: '{field_name}' is not a sequence key (allowed: {', '.join(sorted(SEQUENCE_KEYS))})")
+        if head and head not in names:
+            raise UserError(f"{source}: --set {key}: no sequence '{head}' (sequences: {', '.join(map(str, names))})")
+        if head:
             i = names.index(head)
             merged[i] = apply_overrides(merged[i], [item[len(head) + 1:]])
         else:

@@ -62,7 +62,7 @@ def sequence_meta(seq: SequenceConfig, scene: Scene) -> SequenceMeta:
     for i, t in enumerate(times):
         state = scene.camera.state(float(t))
         proj = perspective(state.fov, aspect, scene.near, scene.far)
-        reset = i == 0 or scene.camera.is_cut(previous_time(seq, i), float(t))
+        reset = i == 0 or scene.camera.breaks_history(previous_time(seq, i), float(t), aspect)
         frames.append(FrameMeta(
             index=i, jitter=(float(jitter[i, 0]), float(jitter[i, 1])), reset=bool(reset), time=float(t),
             view=[float(v) for v in state.view().ravel()], proj=[float(v) for v in proj.ravel()],

@@ -79,3 +79,27 @@ def test_each_cut_resets_exactly_one_frame():
         assert len(resets) == 2 and resets[0] == 0 and resets[1] in (48, 49)
         first_new = resets[1]
         assert path.state(meta.frames[first_new].time).yaw == 90 and path.state(meta.frames[first_new - 1].time).yaw == 0
+
+
+def test_view_jumped_when_the_point_looked_at_leaves_the_previous_view():
+    from mnss_kit.render.camera import CameraState, view_jumped
+
+    def state(yaw, position=(0.0, 2.0, 0.0), inverse_focus=0.0):
+        return CameraState(np.array(position), yaw, -10.0, 0.0, 70.0, inverse_focus)
+
+    aspect = 16 / 9  # half the horizontal field of view: atan(tan(35) * 16 / 9) = 51 degrees
+    assert not view_jumped(state(0), state(45), aspect)
+    assert view_jumped(state(0), state(55), aspect) and view_jumped(state(0), state(-55), aspect)
+    assert view_jumped(state(0), state(180), aspect)  # looking back: behind the previous camera
+    # a pan without a turn: the point 5 m ahead moves off the previous image only when the camera moves far
+    assert not view_jumped(state(0, inverse_focus=0.2), state(0, (1.0, 2.0, 0.0), 0.2), aspect)
+    assert view_jumped(state(0, inverse_focus=0.2), state(0, (8.0, 2.0, 0.0), 0.2), aspect)
+
+
+def test_look_at_keyframes_give_the_focus_distance_and_a_whip_pan_breaks_history():
+    keys = [KeyframeConfig(0.0, (0, 2, 10), look_at=(0, 2, 0)), KeyframeConfig(1.0, (0, 2, 10), look_at=(0, 2, 5)),
+            KeyframeConfig(1.1, (0, 2, 10), look_at=(-10, 2, 10))]
+    path = CameraPath(keys, 60.0)
+    assert path.state(0.0).inverse_focus == pytest.approx(0.1) and path.state(1.0).inverse_focus == pytest.approx(0.2)
+    assert not path.breaks_history(0.0, 0.033, 16 / 9)
+    assert path.breaks_history(1.0, 1.1, 16 / 9)  # 90 degrees in 0.1 s

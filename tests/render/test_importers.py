@@ -7,6 +7,7 @@ import io
 import json
 import logging
 import struct
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -254,6 +255,37 @@ def test_glb_with_texture_in_buffer_view_and_material_factors(tmp_path):
     assert (m.alpha_mode, m.alpha_cutoff, m.double_sided, m.name) == ("mask", 0.25, True, "painted")
 
 
+def test_exporter_style_glb_with_several_meshes_materials_and_textures(tmp_path, caplog):
+    # What a game-level export looks like (no such file ships in a small registry package): one
+    # buffer shared by every mesh, a mesh of two primitives with different materials, two textures
+    # embedded as buffer views and shared between materials, a node hierarchy, a mesh without
+    # normals, and loose edges exported as a LINES primitive.
+    gltf = GltfBuilder()
+    bricks, moss = (gltf.texture({"bufferView": gltf.view(png_bytes(image)), "mimeType": "image/png"})
+                    for image in (CHECKER, CHECKER[::-1].copy()))
+    wall, floor, trim = (gltf.material(name=name, pbrMetallicRoughness={"baseColorTexture": {"index": t}})
+                         for name, t in (("wall", bricks), ("floor", moss), ("trim", bricks)))
+    uvs = gltf.accessor(QUAD[:, :2].copy())
+    house = gltf.mesh(material=wall, node={"translation": [10, 0, 0]})
+    second = {"attributes": {"POSITION": gltf.accessor(QUAD + [0, 0, 1]), "TEXCOORD_0": uvs},
+              "indices": gltf.accessor(QUAD_INDICES, USHORT), "material": trim}  # fmt: skip
+    gltf.doc["meshes"][-1]["primitives"].append(second)
+    gltf.doc["meshes"][-1]["primitives"][0]["attributes"]["TEXCOORD_0"] = uvs
+    ground = gltf.mesh(material=floor, normals=False, node={"scale": [50, 50, 1]})
+    gltf.doc["nodes"][house]["children"] = [ground]
+    gltf.doc["scenes"][0]["nodes"].remove(ground)  # the ground hangs below the house node
+    gltf.mesh(mode=1, normals=False)  # loose edges
+    with caplog.at_level(logging.WARNING):
+        meshes = load_meshes(gltf.write_glb(tmp_path / "level.glb"))
+    assert [m.material.name for m in meshes] == ["wall", "trim", "floor"]
+    assert meshes[0].material.base_color_texture is meshes[1].material.base_color_texture  # one decode per image
+    np.testing.assert_array_equal(meshes[2].material.base_color_texture, CHECKER[::-1])
+    np.testing.assert_allclose(meshes[2].positions, QUAD * [50, 50, 1] + [10, 0, 0])  # parent transform baked
+    np.testing.assert_allclose(meshes[2].normals, np.tile(UP, (4, 1)), atol=1e-6)  # computed for the ground
+    messages = warnings_from(caplog)
+    assert len([m for m in messages if "mode 1" in m]) == 1 and all("level.glb" in m for m in messages)
+
+
 def test_gltf_default_material_follows_the_specification(tmp_path):
     gltf = GltfBuilder()
     gltf.mesh()
@@ -437,6 +469,49 @@ def test_obj_quads_negative_indices_and_missing_vt_vn(tmp_path, caplog):
     assert len(messages) == 2 and all("cube.obj" in m for m in messages)
 
 
+def test_obj_loose_edges_lines_and_points_are_skipped_with_one_counting_warning(tmp_path, caplog):
+    # Blender writes loose edges as two-corner faces at the end of the file (samurai_monastry.obj has 201)
+    lines = [f"v {x} {y} {z}" for x, y, z in CUBE_CORNERS]
+    lines += ["f " + " ".join(map(str, corners)) for corners, _ in CUBE_FACES]
+    lines += ["f 1 7", "f 2 8", "f 3", "l 1 2 3", "p 4"]
+    path = tmp_path / "loose.obj"
+    path.write_text("\n".join(lines) + "\n")
+    with caplog.at_level(logging.WARNING):
+        (mesh,) = load_meshes(path)
+    assert len(mesh.indices) == 12
+    skipped = [m for m in warnings_from(caplog) if "skipped" in m]
+    assert skipped == [f"{path}: skipped 3 face(s) of fewer than 3 corners, 1 line(s), 1 point(s): no surface to render"]
+
+
+# Real exported OBJ files from a package the registries serve (airo-models, MIT, in the test extra):
+# CAD/Blender exports of robot arms and grippers with loose edges (`l`), several materials, no normals.
+REAL_OBJ_FILES = {
+    "arms/ur5e/visual/wrist1.obj": {"lines": 7, "materials": 3},
+    "grippers/robotiq_2f_85/meshes/visual/robotiq_arg2f_85_outer_knuckle.obj": {"lines": 0, "materials": 1},
+    "arms/ur3e/visual/base_cable_labels.obj": {"lines": 0, "materials": 4},
+}
+
+
+@pytest.mark.parametrize("relative", sorted(REAL_OBJ_FILES))
+def test_real_exported_obj_files_import(relative, caplog):
+    import airo_models  # in the test extra, so the test runs wherever the tests do
+    path = Path(airo_models.__file__).parent / relative
+    text = path.read_text()
+    expected = REAL_OBJ_FILES[relative]
+    with caplog.at_level(logging.WARNING):
+        meshes = load_meshes(path)
+    assert len(meshes) == expected["materials"]
+    faces = sum(len(line.split()) - 3 for line in text.splitlines() if line.startswith("f "))  # a fan: corners - 2
+    assert sum(len(m.indices) for m in meshes) == faces
+    for mesh in meshes:
+        assert np.isfinite(mesh.positions).all() and mesh.indices.max() < len(mesh.positions)
+        np.testing.assert_allclose(np.linalg.norm(mesh.normals, axis=1), 1.0, atol=1e-5)
+    skipped = [m for m in warnings_from(caplog) if "skipped" in m]
+    assert skipped == ([f"{path}: skipped {expected['lines']} line(s): no surface to render"] if expected["lines"] else [])
+    if "vn " not in text:
+        assert any("no vn" in m for m in warnings_from(caplog))
+
+
 def test_obj_mtl_materials_textures_and_v_flip(tmp_path):
     Image.fromarray(CHECKER).save(tmp_path / "bricks.png")
     (tmp_path / "scene.mtl").write_text(
@@ -503,7 +578,6 @@ def test_obj_missing_library_texture_and_material_fall_back_with_warnings(tmp_pa
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n", "texture index 1"),
         ("v 0 zero 0\n", r"bad\.obj:1: 'v' expects numbers"),
         ("v 0 0\n", "at least 3 numbers"),
-        ("v 0 0 0\nv 1 0 0\nf 1 2\n", "at least 3 corners"),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "not a vertex index"),
         ("# nothing but a comment\n", "no triangle geometry"),
     ],

@@ -2,7 +2,9 @@
 
 OBJ: ``v``, ``vt``, ``vn``, ``f`` (polygons split into fans from their first corner; negative
 indices count back from the last vertex read; corners may lack ``vt`` or ``vn``), ``usemtl`` and
-``mtllib``.  Groups, smoothing groups, lines and points are ignored.  Texture ``v`` is flipped
+``mtllib``.  Groups and smoothing groups are ignored.  Faces of fewer than 3 corners (Blender
+writes its loose edges as two-corner ``f`` lines), lines (``l``) and points (``p``) cannot be
+rendered as surfaces: they are skipped, counted in one warning per file, as other importers do.  Texture ``v`` is flipped
 (v_gltf = 1 - v_obj) because OBJ's v grows upwards.
 
 MTL, each mapped onto ``Material``:
@@ -24,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from mnss_kit.errors import UserError
-from mnss_kit.render.importers.common import FillIns, bake_alpha, decode_image, normalize_rows, smooth_normals
+from mnss_kit.render.importers.common import FillIns, bake_alpha, decode_image, log, normalize_rows, smooth_normals
 from mnss_kit.render.mesh import Material, Mesh
 
 # Texture map options and how many arguments they take; None: one to three numbers.
@@ -39,6 +41,7 @@ def load_obj(path: Path) -> list[Mesh]:
     reader.parse()
     meshes = reader.meshes()
     reader.fill_ins.emit()
+    reader.warn_skipped()
     return meshes
 
 
@@ -69,6 +72,7 @@ class _ObjReader:
         self.groups: dict[str, _FaceGroup] = {}
         self.material_records: dict[str, dict] = {}
         self._images: dict[Path, np.ndarray | None] = {}
+        self.skipped = {"face(s) of fewer than 3 corners": 0, "line(s)": 0, "point(s)": 0}
 
     def parse(self) -> None:
         material = ""
@@ -82,6 +86,8 @@ class _ObjReader:
                 self.normals.append(_numbers(args, 3, 3, where, keyword))
             elif keyword == "f":
                 self._face(args, self.groups.setdefault(material, _FaceGroup()), where)
+            elif keyword in ("l", "p"):
+                self.skipped["line(s)" if keyword == "l" else "point(s)"] += 1
             elif keyword == "usemtl":
                 material = " ".join(args)
             elif keyword == "mtllib":
@@ -89,7 +95,8 @@ class _ObjReader:
 
     def _face(self, args: list[str], group: _FaceGroup, where: str) -> None:
         if len(args) < 3:
-            raise UserError(f"{where}: a face needs at least 3 corners, got {len(args)}")
+            self.skipped["face(s) of fewer than 3 corners"] += 1
+            return
         ids = []
         for token in args:
             vertex_id = group.token_ids.get(token)
@@ -99,6 +106,11 @@ class _ObjReader:
                     group.token_ids[token] = vertex_id
             ids.append(vertex_id)
         group.triangles.extend((ids[0], ids[k], ids[k + 1]) for k in range(1, len(ids) - 1))
+
+    def warn_skipped(self) -> None:
+        counts = [f"{n} {what}" for what, n in self.skipped.items() if n]
+        if counts:
+            log.warning("%s: skipped %s: no surface to render", self.path, ", ".join(counts))
 
     def _corner(self, token: str, where: str) -> tuple[int, int, int]:
         """0-based (position, texcoord, normal) indices of a face corner 'v', 'v/t', 'v//n' or 'v/t/n'; -1: absent."""

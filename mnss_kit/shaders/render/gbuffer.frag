@@ -1,5 +1,6 @@
 #version 330
 // Deferred G-buffer pass: material and geometry attributes into five targets.
+#include "motion.glsl"
 uniform sampler2D base_texture;
 uniform vec3 base_color;       // linear, multiplies the texture
 uniform float roughness;
@@ -28,9 +29,7 @@ void main() {
     float len = length(v_normal);
     vec3 n = len > 1e-8 ? v_normal / len : vec3(0.0, 1.0, 0.0);  // degenerate (pole) normals
     if (!gl_FrontFacing) n = -n;
-    vec2 cur_ndc = v_cur_clip.xy / v_cur_clip.w;
-    vec2 prev_ndc = v_prev_clip.xy / v_prev_clip.w;
-    vec2 motion = (prev_ndc - cur_ndc) * vec2(0.5, -0.5) * target_size;
+    vec2 motion = motion_to_previous(v_cur_clip, v_prev_clip, target_size);
     out_albedo = vec4(base_color * tex.rgb, 1.0);
     out_normal_rough = vec4(n, roughness);
     out_emissive_metal = vec4(emissive, metallic);
