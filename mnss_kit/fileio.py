@@ -1,4 +1,8 @@
-"""Atomic writes: a reader never sees a half-written file or directory."""
+"""Atomic writes: a reader never sees a half-written file or directory.
+
+JSON files hold no NaN or infinity (JSON has neither): ``json_safe`` writes them as ``null``.  An
+infinite PSNR (identical images, ``metrics.psnr``) is therefore ``null`` in every JSON report.
+"""
 
 from __future__ import annotations
 
@@ -6,9 +10,12 @@ import contextlib
 import json
 import os
 import shutil
+import math
 import tempfile
 from pathlib import Path
 from typing import Iterator
+
+import numpy as np
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
@@ -33,8 +40,26 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
+def json_safe(obj):
+    """A copy of ``obj`` that JSON can hold: NaN and infinities to None, numpy scalars to Python."""
+    if isinstance(obj, dict):
+        return {(k.item() if isinstance(k, np.generic) else k): json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_safe(v) for v in obj]
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def json_text(obj) -> str:
+    """``obj`` as the toolkit writes JSON files: ``json_safe``, indented by 2, a final newline."""
+    return json.dumps(json_safe(obj), indent=2, allow_nan=False) + "\n"
+
+
 def atomic_write_json(path: str | os.PathLike, obj) -> Path:
-    return atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=False) + "\n")
+    return atomic_write_text(path, json_text(obj))
 
 
 @contextlib.contextmanager

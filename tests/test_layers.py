@@ -81,3 +81,30 @@ def test_metrics_import_no_stage():
         for mod in imported_modules(path):
             target = stage_of(mod)
             assert target is None or target in SHARED, f"{path.relative_to(PKG)} imports {mod}"
+
+
+def _calls_log10(path: Path) -> bool:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    return any(isinstance(n, ast.Attribute) and n.attr == "log10" or isinstance(n, ast.Name) and n.id == "log10"
+               for n in ast.walk(tree))
+
+
+def test_only_metrics_computes_psnr():
+    """PSNR has one definition (metrics/psnr.py, and its tensor form in metrics/image.py).
+
+    quantize/sensitivity.py computes SQNR, a ratio of summed powers rather than a peak over MSE.
+    """
+    allowed = {"metrics", "quantize/sensitivity.py"}
+    offenders = [str(p.relative_to(PKG)) for p in PKG.rglob("*.py") if _calls_log10(p)]
+    assert [p for p in offenders if p.split("/")[0] not in allowed and p not in allowed] == []
+    assert "metrics/psnr.py" in offenders
+
+
+def test_metrics_package_and_emulator_load_without_torch():
+    import subprocess
+    import sys
+
+    code = ("import sys, mnss_kit.metrics, mnss_kit.emulate.sequence, mnss_kit.emulate.compare; "
+            "assert 'torch' not in sys.modules, 'torch was imported'")
+    result = subprocess.run([sys.executable, "-c", code], cwd=PKG.parent, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
