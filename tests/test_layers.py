@@ -83,6 +83,79 @@ def test_metrics_import_no_stage():
             assert target is None or target in SHARED, f"{path.relative_to(PKG)} imports {mod}"
 
 
+def module_name(path: Path) -> str:
+    rel = path.relative_to(PKG.parent).with_suffix("")
+    parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts
+    return ".".join(parts)
+
+
+MODULES = {module_name(p): p for p in sorted(PKG.rglob("*.py"))}
+
+
+def package_imports(path: Path) -> set[str]:
+    """The package's modules that ``path`` imports, at module level or inside functions.
+
+    ``from .pkg import name`` counts as importing ``pkg.name`` when that is a module, else ``pkg``.
+    """
+    found = set()
+    for mod in imported_modules(path):
+        while mod and mod not in MODULES:  # ``pkg.name`` where ``name`` is not a module
+            mod = mod.rpartition(".")[0]
+        if mod:
+            found.add(mod)
+    tree = ast.parse(path.read_text(), filename=str(path))
+    for node in ast.walk(tree):  # ``from pkg import module``: imported_modules keeps only ``pkg``
+        if isinstance(node, ast.ImportFrom) and node.module is not None:
+            base = module_name(path) if path.name == "__init__.py" else module_name(path).rpartition(".")[0]
+            for _ in range(max(node.level - 1, 0)):
+                base = base.rpartition(".")[0]
+            pkg = f"{base}.{node.module}" if node.level else node.module
+            found.update(f"{pkg}.{a.name}" for a in node.names if f"{pkg}.{a.name}" in MODULES)
+    found.discard(module_name(path))
+    return found
+
+
+def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected groups of more than one module (Tarjan), each sorted."""
+    index, low, stack, on_stack, groups = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                groups.append(sorted(group))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return groups
+
+
+def test_import_cycles_are_found():
+    assert import_cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert import_cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_package_has_no_import_cycle():
+    graph = {name: package_imports(path) for name, path in MODULES.items()}
+    assert import_cycles(graph) == []
+
+
 def _calls_log10(path: Path) -> bool:
     tree = ast.parse(path.read_text(), filename=str(path))
     return any(isinstance(n, ast.Attribute) and n.attr == "log10" or isinstance(n, ast.Name) and n.id == "log10"

@@ -137,9 +137,9 @@ def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int) -
                             f"export from the checkpoint to quantize for another size")
         size = (w, h)
     else:
-        from .command import DEFAULT_RESOLUTION
+        from ..split.plan import DEFAULT_RESOLUTION
 
-        size = parse_resolution(request.resolution or DEFAULT_RESOLUTION)
+        size = parse_resolution(request.resolution) if request.resolution else DEFAULT_RESOLUTION
     if size[0] % scale or size[1] % scale:
         raise UserError(f"output size {size[0]}x{size[1]} is not a multiple of the model's scale {scale}")
     return size
