@@ -17,6 +17,8 @@ from typing import Iterator
 
 import numpy as np
 
+from .errors import UserError
+
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
     """Write ``data`` to ``path`` through a temporary file in the same directory and rename."""
@@ -38,6 +40,32 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def read_json(path: str | os.PathLike):
+    """The parsed JSON file ``path``; ``UserError`` naming the file when it is not valid JSON."""
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise UserError(f"{path}: not valid JSON ({e})") from None
+
+
+def check_format(data, path, name: str, version_key: str, newest: int, what: str, newer=UserError) -> int:
+    """The version of a JSON document that must hold ``"format": name`` and an integer ``version_key``.
+
+    ``UserError`` naming ``path`` for another format (``what`` says what the file should be, e.g.
+    "a tensor dump") or a version that is not a positive integer; ``newer`` (an exception class)
+    for a version above ``newest``: a reader refuses what a newer mnss-kit wrote instead of guessing.
+    """
+    if not isinstance(data, dict) or data.get("format") != name:
+        raise UserError(f"{path}: not {what} (format is not '{name}')")
+    version = data.get(version_key)
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        raise UserError(f"{path}: {version_key} must be a positive integer, got {version!r}")
+    if version > newest:
+        raise newer(f"{path}: format version {version} is newer than this mnss-kit reads (up to {newest}); "
+                    f"upgrade mnss-kit to read it")
+    return version
 
 
 def json_safe(obj):
@@ -89,8 +117,6 @@ def atomic_directory(path: str | os.PathLike, overwrite: bool = False) -> Iterat
     """
     path = Path(path)
     if path.exists() and any(path.iterdir()) and not overwrite:
-        from .errors import UserError
-
         raise UserError(f"output directory {path} exists and is not empty (use --overwrite)")
     path.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.staging."))
