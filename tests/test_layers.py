@@ -181,3 +181,19 @@ def test_metrics_package_and_emulator_load_without_torch():
             "assert 'torch' not in sys.modules, 'torch was imported'")
     result = subprocess.run([sys.executable, "-c", code], cwd=PKG.parent, capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
+
+
+def _calls(path: Path, names: set[str]) -> set[str]:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    return {n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute) and n.attr in names}
+
+
+def test_one_tflite_reader_and_one_writer():
+    """``export/npu_files.py`` parses .tflite files, ``quantize/tflite_writer.py`` builds them; NpuTensor is defined once."""
+    readers = [str(p.relative_to(PKG)) for p in PKG.rglob("*.py") if _calls(p, {"InitFromPackedBuf", "InitFromObj", "GetRootAs"})]
+    writers = [str(p.relative_to(PKG)) for p in PKG.rglob("*.py") if _calls(p, {"Builder"})]
+    tensor_classes = [str(p.relative_to(PKG)) for p in PKG.rglob("*.py")
+                      if any(isinstance(n, ast.ClassDef) and n.name == "NpuTensor" for n in ast.walk(ast.parse(p.read_text())))]
+    assert readers == ["export/npu_files.py"]
+    assert writers == ["quantize/tflite_writer.py"]
+    assert tensor_classes == ["export/npu_files.py"]

@@ -65,7 +65,7 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
     clock.lap("quantize")
     tflite = read_tflite(npu.tflite)
     _check_npu_io(tflite, hr_size)
-    in_q, out_q = tflite.tensors[tflite.inputs[0]].qparams(), tflite.tensors[tflite.outputs[0]].qparams()
+    in_q, out_q = tflite.tensors[tflite.inputs[0]].plain_qparams(), tflite.tensors[tflite.outputs[0]].plain_qparams()
     pattern = record.get("jitter_pattern") or "mnss"
     frames, golden_source = golden_input_frames(request, lr_size, model.scale, pattern)
     log.info("running %d golden frames at %dx%d", len(frames), *hr_size)
@@ -161,8 +161,8 @@ def _check_npu_io(tflite, hr_size: tuple[int, int]) -> None:
     w, h = hr_size
     for name in tflite.inputs + tflite.outputs:
         t = tflite.tensors[name]
-        if t.shape != [1, h, w, 3] or t.dtype != "int8" or len(t.scale) != 1:
-            raise UserError(f"npu.tflite tensor '{name}' is {t.dtype} {t.shape}; the bundle needs int8 [1, {h}, {w}, 3] per-tensor quantized")
+        if t.shape != (1, h, w, 3) or t.dtype != "int8" or t.scale.size != 1:
+            raise UserError(f"npu.tflite tensor '{name}' is {t.dtype} {list(t.shape)}; the bundle needs int8 [1, {h}, {w}, 3] per-tensor quantized")
 
 
 def _placement(model, request: ExportRequest, hr_size, name: str) -> dict | None:

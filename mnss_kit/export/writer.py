@@ -89,7 +89,7 @@ def build_manifest(parts: BundleParts, passes: list[dict], blocks: list[dict], t
     w, h = parts.lr_size
     npu_model = read_tflite(parts.npu.tflite, TFLITE_NAME)
     npu_in, npu_out = npu_model.inputs[0], npu_model.outputs[0]
-    in_q, out_q = npu_model.tensors[npu_in].qparams(), npu_model.tensors[npu_out].qparams()
+    in_q, out_q = npu_model.tensors[npu_in].plain_qparams(), npu_model.tensors[npu_out].plain_qparams()
     npu_steps = {"model": TFLITE_NAME, "input": npu_in, "output": npu_out, "input_q": in_q, "output_q": out_q}
     schedule = gpu_plan.schedule(parts.stage, parts.lr_size, npu_steps, parts.profile)
     return {
@@ -124,7 +124,7 @@ def build_manifest(parts: BundleParts, passes: list[dict], blocks: list[dict], t
             "onnx_layout": conventions.LAYOUT_TORCH,
             "inputs": npu_model.inputs,
             "outputs": npu_model.outputs,
-            "tensors": [{"name": t.name, "shape": t.shape, "dtype": t.dtype, "scale": t.scale[0], "zero_point": t.zero_point[0]}
+            "tensors": [{"name": t.name, "shape": list(t.shape), "dtype": t.dtype, "scale": float(t.scale[0]), "zero_point": int(t.zero_point[0])}
                         for t in npu_model.activations()],
             "requantization_profile": parts.profile,
             "quantization": parts.npu.quantization,
