@@ -7,14 +7,13 @@ after :func:`mnss_kit.export.check.check_bundle` passes on the staging copy, thr
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .. import __version__
-from ..fileio import atomic_directory
+from ..fileio import atomic_directory, json_text
 from ..gpu.glsl import flatten
 from ..gpu.schedule import GpuStage
 from ..model.checkpoint import code_version
@@ -72,7 +71,7 @@ def stage_bundle(root: Path, parts: BundleParts) -> dict:
     golden = write_golden(root, parts.golden, parts.stage.scale, table)
     manifest = build_manifest(parts, passes, blocks, table, golden)
     manifest["files"] = file_table(root)
-    (root / MANIFEST_NAME).write_text(json.dumps(manifest, indent=2) + "\n")
+    (root / MANIFEST_NAME).write_text(json_text(manifest))
     return manifest
 
 

@@ -12,7 +12,6 @@ it with checkpoint loading and calibration data.  Written into ``out_dir``:
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
 from pathlib import Path
 from typing import Sequence
@@ -99,7 +98,7 @@ def write_artifacts(art: QuantizedArtifacts, out_dir: str | Path) -> dict[str, i
     out = Path(out_dir)
     (out / "npu.tflite").write_bytes(art.tflite)
     (out / "npu_qdq.onnx").write_bytes(art.onnx)
-    (out / "encodings.json").write_text(json.dumps(artifacts.encodings(art.graph), indent=2) + "\n")
+    (out / "encodings.json").write_text(json_text(artifacts.encodings(art.graph)))
     files = {n: (out / n).stat().st_size for n in ("npu.tflite", "npu_qdq.onnx", "encodings.json")}
     art.report["files"] = files
     (out / "report.json").write_text(json_text(art.report))
