@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import shutil
-import math
 import tempfile
 from pathlib import Path
 from typing import Iterator
