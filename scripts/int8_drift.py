@@ -145,7 +145,8 @@ def run(args) -> dict:
 
     from mnss_kit.dataset import format as fmt
     from mnss_kit.eval.methods import model_method
-    from mnss_kit.metrics.image import psnr, to_image
+    from mnss_kit.metrics.image import to_image
+    from mnss_kit.metrics.psnr import psnr
     from mnss_kit.model.checkpoint import load
     from mnss_kit.quantize.command import calibration_samples, int8_model, open_data
     from mnss_kit.quantize.stage import QuantizeOptions, quantize_module

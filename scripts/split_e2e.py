@@ -34,6 +34,7 @@ sys.path.insert(0, str(REPO))
 import numpy as np  # noqa: E402
 
 from mnss_kit.fileio import atomic_write_json, atomic_write_text  # noqa: E402
+from mnss_kit.metrics.psnr import mse_psnr  # noqa: E402
 
 BUDGET_DB = 0.2  # int8 loss budget of the quantization study (fp32 -> int8 mean PSNR)
 DOC = REPO / "docs" / "split_e2e.md"
@@ -94,7 +95,7 @@ class PairedOutputs:
         output, aux, state = self._split(inputs, state)
         diff = output[0].numpy().astype(np.float64) - self._last
         mse = float(np.mean(diff * diff))
-        self.psnr_db.append(math.inf if mse == 0.0 else 10.0 * math.log10(1.0 / mse))
+        self.psnr_db.append(mse_psnr(mse))
         self.max_abs.append(float(np.max(np.abs(diff))))
         return output, aux, state
 

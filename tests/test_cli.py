@@ -24,3 +24,7 @@ def test_user_error_is_one_line_and_exit_2(capsys, tmp_path):
     err = capsys.readouterr().err.strip().splitlines()
     assert code != 0
     assert len(err) == 1 and "error" in err[0]
+
+
+def test_every_listed_command_module_exists():
+    assert cli.available_commands() == cli.COMMANDS

@@ -120,3 +120,119 @@ def test_no_module_outside_a_family_folder_names_its_stages():
             names = stages - bindings if path.parent == PKG / "gpu" else stages
             mentions = _stage_mentions(path, names)
             assert not mentions, f"{path.relative_to(PKG)} names {family} stages: {'; '.join(mentions)}"
+
+
+def module_name(path: Path) -> str:
+    rel = path.relative_to(PKG.parent).with_suffix("")
+    parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts
+    return ".".join(parts)
+
+
+MODULES = {module_name(p): p for p in sorted(PKG.rglob("*.py"))}
+
+
+def package_imports(path: Path) -> set[str]:
+    """The package's modules that ``path`` imports, at module level or inside functions.
+
+    ``from .pkg import name`` counts as importing ``pkg.name`` when that is a module, else ``pkg``.
+    """
+    found = set()
+    for mod in imported_modules(path):
+        while mod and mod not in MODULES:  # ``pkg.name`` where ``name`` is not a module
+            mod = mod.rpartition(".")[0]
+        if mod:
+            found.add(mod)
+    tree = ast.parse(path.read_text(), filename=str(path))
+    for node in ast.walk(tree):  # ``from pkg import module``: imported_modules keeps only ``pkg``
+        if isinstance(node, ast.ImportFrom) and node.module is not None:
+            base = module_name(path) if path.name == "__init__.py" else module_name(path).rpartition(".")[0]
+            for _ in range(max(node.level - 1, 0)):
+                base = base.rpartition(".")[0]
+            pkg = f"{base}.{node.module}" if node.level else node.module
+            found.update(f"{pkg}.{a.name}" for a in node.names if f"{pkg}.{a.name}" in MODULES)
+    found.discard(module_name(path))
+    return found
+
+
+def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected groups of more than one module (Tarjan), each sorted."""
+    index, low, stack, on_stack, groups = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                groups.append(sorted(group))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return groups
+
+
+def test_import_cycles_are_found():
+    assert import_cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert import_cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_package_has_no_import_cycle():
+    graph = {name: package_imports(path) for name, path in MODULES.items()}
+    assert import_cycles(graph) == []
+
+
+def _calls_log10(path: Path) -> bool:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    return any(isinstance(n, ast.Attribute) and n.attr == "log10" or isinstance(n, ast.Name) and n.id == "log10"
+               for n in ast.walk(tree))
+
+
+def test_only_metrics_computes_psnr():
+    """PSNR has one definition (metrics/psnr.py, and its tensor form in metrics/image.py).
+
+    quantize/sensitivity.py computes SQNR, a ratio of summed powers rather than a peak over MSE.
+    """
+    allowed = {"metrics", "quantize/sensitivity.py"}
+    offenders = [str(p.relative_to(PKG)) for p in PKG.rglob("*.py") if _calls_log10(p)]
+    assert [p for p in offenders if p.split("/")[0] not in allowed and p not in allowed] == []
+    assert "metrics/psnr.py" in offenders
+
+
+def test_metrics_package_and_emulator_load_without_torch():
+    import subprocess
+    import sys
+
+    code = ("import sys, mnss_kit.metrics, mnss_kit.emulate.sequence, mnss_kit.emulate.compare; "
+            "assert 'torch' not in sys.modules, 'torch was imported'")
+    result = subprocess.run([sys.executable, "-c", code], cwd=PKG.parent, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+
+
+def _calls(path: Path, names: set[str]) -> set[str]:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    return {n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute) and n.attr in names}
+
+
+def test_one_tflite_reader_and_one_writer():
+    """``export/npu_files.py`` parses .tflite files, ``quantize/tflite_writer.py`` builds them; NpuTensor is defined once."""
+    readers = [str(p.relative_to(PKG)) for p in PKG.rglob("*.py") if _calls(p, {"InitFromPackedBuf", "InitFromObj", "GetRootAs"})]
+    writers = [str(p.relative_to(PKG)) for p in PKG.rglob("*.py") if _calls(p, {"Builder"})]
+    tensor_classes = [str(p.relative_to(PKG)) for p in PKG.rglob("*.py")
+                      if any(isinstance(n, ast.ClassDef) and n.name == "NpuTensor" for n in ast.walk(ast.parse(p.read_text())))]
+    assert readers == ["export/npu_files.py"]
+    assert writers == ["quantize/tflite_writer.py"]
+    assert tensor_classes == ["export/npu_files.py"]

@@ -13,7 +13,6 @@ canonical ones (``mnss_kit.ops.conventions``) by ``read_buffer``, once, here.
 from __future__ import annotations
 
 import dataclasses
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -22,7 +21,7 @@ import numpy as np
 
 from ..config import from_dict, to_dict
 from ..errors import UserError
-from ..fileio import atomic_write_json
+from ..fileio import atomic_write_json, read_json
 from ..ops import colour
 from . import exr
 
@@ -125,11 +124,7 @@ def read_meta(seq_dir: str | Path) -> SequenceMeta:
     path = Path(seq_dir) / META_FILE
     if not path.is_file():
         raise UserError(f"{seq_dir} is not a dataset sequence (no {META_FILE})")
-    try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise UserError(f"{path}: not valid JSON ({e})") from None
-    return from_dict(SequenceMeta, data, source=str(path))
+    return from_dict(SequenceMeta, read_json(path), source=str(path))
 
 
 def find_sequences(root: str | Path) -> list[Path]:

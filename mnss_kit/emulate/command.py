@@ -52,11 +52,12 @@ def _emulate(args: argparse.Namespace) -> int:
     import logging
 
     from .frame_loop import Emulator
+    from .sequence import run_dataset
 
     profile = args.npu_profile or ("ort-cpu" if args.npu_backend == "onnxruntime" else "tflite-ref")
     emulator = Emulator(args.bundle, profile, args.npu_backend, args.gpu_backend)
-    report = emulator.run_sequence(args.data, out_dir=args.out, dump=args.dump, frames=args.frames,
-                                   overwrite=args.overwrite, progress=not args.no_progress)
+    report = run_dataset(emulator, args.data, out_dir=args.out, dump=args.dump, frames=args.frames,
+                         overwrite=args.overwrite, progress=not args.no_progress)
     log = logging.getLogger("mnss_kit.emulate")
     for name, seq in report["sequences"].items():
         s = seq["summary"]

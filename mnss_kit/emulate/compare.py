@@ -12,7 +12,7 @@ For every tensor both dumps hold, over every frame both hold:
 ``psnr``
     dB over all frames.  The peak is the integer range of the dtype (255 for 8-bit tensors)
     when integers are compared, else the value range of the first dump's tensor (at least
-    1e-12).  ``null`` when the tensors are identical (infinite PSNR).
+    1e-12).  Infinite when the tensors are identical: ``null`` in the JSON form.
 
 Tensors are reported in the first dump's execution order; the *first diverging tensor* is the
 earliest one in that order, in the earliest frame with any difference.  Recurrent state carries
@@ -21,13 +21,14 @@ a divergence into later frames, so the frame matters as much as the tensor.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import UserError
+from ..fileio import json_safe
+from ..metrics.psnr import mse_psnr
 from .dump import Dump, TensorEntry, merge_order, read_dump
 
 
@@ -45,15 +46,16 @@ class TensorStats:
     first_frame: int | None = None
     dtype: str = ""
 
+    @property
+    def psnr(self) -> float:
+        return mse_psnr(self.squared_error / max(self.values, 1), self.peak)
+
     def as_json(self) -> dict:
-        psnr = None
-        if self.squared_error > 0:
-            psnr = 10.0 * math.log10(self.peak * self.peak / (self.squared_error / max(self.values, 1)))
         max_lsb = None if self.mode == "float" else (int(self.max_lsb) if self.mode == "lsb" else float(self.max_lsb))
         return {
             "max_lsb": max_lsb,
             "mismatch_fraction": self.mismatches / max(self.values, 1),
-            "psnr": psnr,
+            "psnr": self.psnr,
             "max_abs": float(self.max_abs),
             "first_frame": self.first_frame,
             "compared": self.mode,
@@ -71,7 +73,7 @@ class Comparison:
     only_in_b: list[str] = field(default_factory=list)
 
     def as_json(self, a: str = "", b: str = "") -> dict:
-        return {
+        return json_safe({
             "a": a,
             "b": b,
             "frames": self.frames,
@@ -80,7 +82,7 @@ class Comparison:
             "tensors": {name: self.stats[name].as_json() for name in self.order},
             "only_in_a": self.only_in_a,
             "only_in_b": self.only_in_b,
-        }
+        })
 
 
 def _is_int(array: np.ndarray) -> bool:
@@ -184,9 +186,8 @@ def format_report(result: Comparison) -> str:
         s = result.stats[name].as_json()
         mark = ">> " if name == first else "   "
         lsb = "-" if s["max_lsb"] is None else (f"{s['max_lsb']}" if isinstance(s["max_lsb"], int) else f"{s['max_lsb']:.3g}")
-        psnr = "inf" if s["psnr"] is None else f"{s['psnr']:.2f}"
         ff = "-" if s["first_frame"] is None else str(s["first_frame"])
-        lines.append(f"{mark}{name:<{width}}  {lsb:>9}  {100 * s['mismatch_fraction']:>8.4f}%  {psnr:>8}  {ff}")
+        lines.append(f"{mark}{name:<{width}}  {lsb:>9}  {100 * s['mismatch_fraction']:>8.4f}%  {s['psnr']:>8.2f}  {ff}")
     if result.first_diverging:
         lines.append(f"first diverging tensor: '{first}' in frame {result.first_diverging['frame']}")
     else:

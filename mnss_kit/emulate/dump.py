@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from ..fileio import atomic_write_bytes, atomic_write_json
+from ..fileio import atomic_write_bytes, atomic_write_json, check_format, read_json
 
 FORMAT = "mnss-kit-dump"
 VERSION = 1
@@ -198,15 +198,8 @@ def read_dump(directory: str | Path) -> Dump:
         return golden_dump(root)
     if not path.is_file():
         raise UserError(f"{path}: missing (not a tensor dump)")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise UserError(f"{path}: not valid JSON ({e})") from None
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise UserError(f"{path}: not a tensor dump (format is not '{FORMAT}')")
-    version = data.get("version")
-    if not isinstance(version, int) or version > VERSION:
-        raise UserError(f"{path}: dump version {version!r} is not one this mnss-kit reads (up to {VERSION})")
+    data = read_json(path)
+    check_format(data, path, FORMAT, "version", VERSION, "a tensor dump")
     entries = [TensorEntry.from_json(t, str(path)) for t in data.get("tensors", [])]
     frames = data.get("frames")
     if not isinstance(frames, list) or not all(isinstance(f, dict) and isinstance(f.get("index"), int) for f in frames):

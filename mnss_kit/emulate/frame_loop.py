@@ -2,7 +2,7 @@
 
     emulator = Emulator("bundle/", npu_profile="tflite-ref", npu_backend="numpy", gpu_backend="numpy")
     outputs = emulator.run_frame({"color": ..., "depth": ..., "motion": ..., "jitter": ..., "reset": False})
-    metrics = emulator.run_sequence("data/corridor_01", out_dir="emulated/")
+    metrics = run_dataset(emulator, "data/corridor_01", out_dir="emulated/")  # emulate.sequence
 
 A frame is numpy: every ``input`` resource of the manifest (``(h, w, C)`` float32 at its size;
 for MNSS ``color`` display values, ``depth`` canonical depth, ``motion`` LR pixels), ``jitter``
@@ -81,24 +81,6 @@ class Emulator:
         seconds = {"gpu": total - self._npu_seconds, "npu": self._npu_seconds, "total": total}
         tensors, entries = ({}, {}) if not keep_all else self._named(frame, steps)
         return FrameResult(display, npu_output, state, tensors, entries, seconds)
-
-    def run_sequence(self, data_dir, out_dir=None, dump: bool = False, frames: int | None = None,
-                     overwrite: bool = False, progress: bool = False) -> dict:
-        """Every sequence under ``data_dir`` (a dataset or one sequence) from its first frame.
-
-        Returns ``{"sequences": {name: {"frames": [per-frame metrics], "summary": ...}}, ...}``;
-        with ``out_dir`` also writes display PNGs, ``metrics.json`` and (``dump``) tensor dumps
-        (see :mod:`.sequence`).
-        """
-        from . import sequence
-
-        if out_dir is not None:
-            return sequence.emulate_dataset(self, data_dir, out_dir, dump, frames, overwrite, progress)
-        report = {"sequences": {}}
-        for seq_dir in sequence.find_sequences(data_dir):
-            rows = sequence.run_sequence(self, seq_dir, None, False, frames, progress)
-            report["sequences"][seq_dir.name] = {"frames": rows, "summary": sequence.summarize(rows)}
-        return report
 
     def check_frame(self, inputs: dict) -> dict:
         """The frame with float32 arrays of the bundle's sizes; ``UserError`` naming a bad key."""

@@ -15,9 +15,10 @@ from typing import Callable
 import numpy as np
 
 from ..errors import UserError
+from ..export.npu_files import NpuTensor
 from ..ops import quant
 from . import fast, kernels
-from .npu_graph import NpuGraph, NpuOp, NpuTensor
+from .npu_graph import NpuGraph, NpuOp
 from .profiles import KernelSet
 
 Step = Callable[[list[np.ndarray]], np.ndarray]

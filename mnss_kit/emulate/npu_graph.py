@@ -1,7 +1,7 @@
 """``npu.tflite`` read into plain data the emulator interprets op by op.
 
-The file is parsed with the flatbuffer schema that ships with ai-edge-litert
-(``schema_py_generated``, object API), without an interpreter.  Every problem
+Tensors are read by the toolkit's one NPU file reader (``export.npu_files``); this module adds
+the operators, in execution order, with their options normalized.  Every problem
 a user can cause (missing, truncated or foreign file, an operator or option
 the emulator does not implement, a tensor without quantization) is a
 ``UserError`` naming the file and the operator or tensor.
@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-
+from ..export.npu_files import NpuTensor, parse_tflite, text, tflite_tensors
 
 # operator -> number of activation (non-constant) inputs it takes; constants follow them
 SUPPORTED_OPS = {
@@ -39,30 +39,7 @@ SUPPORTED_OPS = {
     "DEQUANTIZE": 1,
 }
 ACTIVATIONS = {0: "none", 1: "relu", 2: "relu_n1_to_1", 3: "relu6"}
-NUMPY_TYPES = {0: np.float32, 2: np.int32, 4: np.int64, 7: np.int16, 9: np.int8}
-
-
-@dataclass
-class NpuTensor:
-    """One tensor of the graph.  ``scale``/``zero_point``: float32 / int64 arrays (one entry per
-    tensor, or one per channel along ``axis``), empty when not quantized; ``data``: the
-    constant's values, None for activations."""
-
-    name: str
-    shape: tuple[int, ...]
-    dtype: str
-    scale: np.ndarray
-    zero_point: np.ndarray
-    axis: int = 0
-    data: np.ndarray | None = None
-
-    @property
-    def quantized(self) -> bool:
-        return self.scale.size > 0
-
-    def qparams(self) -> tuple[float, int]:
-        """``(scale, zero_point)`` of a per-tensor quantized tensor (scale a float32 value)."""
-        return np.float32(self.scale[0]), int(self.zero_point[0])
+EMULATED_TYPES = ("float32", "int32", "int64", "int16", "int8")
 
 
 @dataclass
@@ -112,16 +89,10 @@ def read_npu_graph(path_or_bytes: str | Path | bytes, source: str | None = None)
 
 
 def _parse(data: bytes, source: str):
-    from ..export.npu_files import parse_tflite
-
     model = parse_tflite(data, source)
     if len(model.subgraphs) > 1:
         raise UserError(f"{source}: has {len(model.subgraphs)} subgraphs; the emulator runs single-subgraph models")
     return model
-
-
-def _text(name) -> str:
-    return name.decode() if isinstance(name, bytes) else str(name)
 
 
 class _Reader:
@@ -130,11 +101,13 @@ class _Reader:
 
         self.schema = schema
         self.model = model
-        self.raw = raw
         self.source = source
         self.sub = model.subgraphs[0]
         self.op_names = {v: k for k, v in vars(schema.BuiltinOperator).items() if not k.startswith("_")}
-        self.tensors = [self.tensor(i, t) for i, t in enumerate(self.sub.tensors or [])]
+        self.tensors = tflite_tensors(model, raw, source)
+        for t in self.tensors:
+            if t.dtype not in EMULATED_TYPES:
+                raise self.fail(f"tensor '{t.name}' has element type {t.dtype}, which the emulator does not handle")
         self.by_name = {t.name: t for t in self.tensors}
 
     def fail(self, message: str) -> UserError:
@@ -150,48 +123,12 @@ class _Reader:
         outputs = [names[i] for i in self.sub.outputs]
         return NpuGraph({t.name: t for t in self.tensors}, ops, inputs, outputs, self.source)
 
-    def buffer_bytes(self, index: int) -> bytes | None:
-        buffers = self.model.buffers or []
-        if index >= len(buffers):
-            return None
-        b = buffers[index]
-        if b.data is not None and len(b.data):
-            return np.asarray(b.data, dtype=np.uint8).tobytes()
-        if b.offset and b.offset > 1:  # large models keep buffers after the flatbuffer
-            if b.offset + b.size > len(self.raw):
-                raise self.fail(f"buffer {index} runs past the end of the file (truncated?)")
-            return self.raw[b.offset:b.offset + b.size]
-        return None
-
-    def tensor(self, index: int, t) -> NpuTensor:
-        name = _text(t.name)
-        if t.type not in NUMPY_TYPES:
-            raise self.fail(f"tensor '{name}' has element type {t.type}, which the emulator does not handle")
-        dtype = np.dtype(NUMPY_TYPES[t.type])
-        shape = tuple(int(d) for d in (t.shape if t.shape is not None else []))
-        q = t.quantization
-        scale = np.asarray(q.scale if q is not None and q.scale is not None else [], dtype=np.float32).reshape(-1)
-        zps = np.asarray(q.zeroPoint if q is not None and q.zeroPoint is not None else [], dtype=np.int64).reshape(-1)
-        if scale.size and zps.size not in (1, scale.size):
-            raise self.fail(f"tensor '{name}' has {scale.size} scales but {zps.size} zero points")
-        if scale.size and zps.size == 0:
-            zps = np.zeros(1, np.int64)
-        raw = self.buffer_bytes(t.buffer)
-        data = None
-        if raw is not None:
-            expected = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
-            if len(raw) != expected:
-                raise self.fail(f"constant tensor '{name}' holds {len(raw)} bytes, shape {list(shape)} of {dtype.name} needs {expected}")
-            data = np.frombuffer(raw, dtype=dtype.newbyteorder("<")).astype(dtype).reshape(shape)
-        axis = int(q.quantizedDimension) if q is not None else 0
-        return NpuTensor(name, shape, dtype.name, scale, zps, axis, data)
-
     def operator(self, index: int, o) -> NpuOp:
         code = self.model.operatorCodes[o.opcodeIndex]
         builtin = max(int(code.builtinCode), int(code.deprecatedBuiltinCode))
         kind = self.op_names.get(builtin, f"builtin code {builtin}")
         if code.customCode:
-            kind = f"custom op '{_text(code.customCode)}'"
+            kind = f"custom op '{text(code.customCode)}'"
         ins = [self.tensors[i].name if i >= 0 else "" for i in o.inputs]
         outs = [self.tensors[i].name for i in o.outputs]
         op = NpuOp(index, kind, ins, outs)

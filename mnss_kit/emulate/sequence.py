@@ -24,16 +24,11 @@ import numpy as np
 from ..dataset.format import SequenceMeta, find_sequences, read_buffer, read_meta
 from ..errors import UserError
 from ..fileio import atomic_directory, atomic_write_bytes, atomic_write_json
+from ..metrics.psnr import psnr
 from .dump import DumpWriter
 from .frame_loop import Emulator
 
 log = logging.getLogger(__name__)
-
-
-def psnr_db(output: np.ndarray, reference: np.ndarray, peak: float = 1.0) -> float | None:
-    """PSNR in dB of two float arrays; None when identical."""
-    mse = float(np.mean((np.asarray(output, np.float64) - np.asarray(reference, np.float64)) ** 2))
-    return None if mse == 0.0 else 10.0 * math.log10(peak * peak / mse)
 
 
 def dataset_buffer(input_name: str) -> tuple[str, str]:
@@ -110,7 +105,7 @@ def run_sequence(emulator: Emulator, seq_dir: Path, out_dir: Path | None, dump: 
             "npu_output_saturated": float(np.mean((npu_out == -128) | (npu_out == 127))),
         }
         if reference is not None:
-            row["psnr_db"] = psnr_db(result.display.astype(np.float32) / 255.0, np.clip(reference, 0.0, 1.0))
+            row["psnr_db"] = psnr(result.display.astype(np.float32) / 255.0, np.clip(reference, 0.0, 1.0))
         rows.append(row)
         if out_dir is not None:
             atomic_write_bytes(out_dir / f"frame_{index:05d}.png", _png(result.display))
@@ -125,10 +120,27 @@ def summarize(rows: list[dict]) -> dict:
     if rows:
         for key in rows[0]["seconds"]:
             out[f"median_seconds_{key}"] = statistics.median(r["seconds"][key] for r in rows)
-    psnrs = [r["psnr_db"] for r in rows if r.get("psnr_db") is not None]
+    psnrs = [r["psnr_db"] for r in rows if math.isfinite(r.get("psnr_db", math.nan))]
     if psnrs:
         out["mean_psnr_db"] = statistics.fmean(psnrs)
     return out
+
+
+def run_dataset(emulator: Emulator, data_dir: str | Path, out_dir: str | Path | None = None, dump: bool = False,
+                frames: int | None = None, overwrite: bool = False, progress: bool = False) -> dict:
+    """Every sequence under ``data_dir`` (a dataset or one sequence) from its first frame.
+
+    Returns ``{"sequences": {name: {"frames": [per-frame metrics], "summary": ...}}, ...}``;
+    with ``out_dir`` also writes display PNGs, ``metrics.json`` and (``dump``) tensor dumps
+    (module docstring).
+    """
+    if out_dir is not None:
+        return emulate_dataset(emulator, data_dir, out_dir, dump, frames, overwrite, progress)
+    report = {"sequences": {}}
+    for seq_dir in find_sequences(data_dir):
+        rows = run_sequence(emulator, seq_dir, None, False, frames, progress)
+        report["sequences"][seq_dir.name] = {"frames": rows, "summary": summarize(rows)}
+    return report
 
 
 def emulate_dataset(emulator: Emulator, data: str | Path, out: str | Path, dump: bool = False, frames: int | None = None,

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..fileio import atomic_write_bytes
-from ..metrics.image import psnr
+from ..metrics.psnr import psnr
 
 CROP = 64  # HR pixels per side (smaller frames use their short side)
 PANEL = 192  # minimum displayed panel size in screen pixels

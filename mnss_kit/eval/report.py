@@ -22,21 +22,10 @@ TABLE_COLUMNS = (
 )
 
 
-def json_safe(obj):
-    """Replace NaN and infinities (not valid JSON) by None, recursively."""
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, dict):
-        return {k: json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [json_safe(v) for v in obj]
-    return obj
-
-
 def write_json(path: str | Path, result: dict) -> Path:
     """The summary without the per-frame rows (those go to the CSV)."""
     summary = {k: v for k, v in result.items() if k != "per_frame"}
-    return atomic_write_json(path, json_safe(summary))
+    return atomic_write_json(path, summary)
 
 
 def write_csv(path: str | Path, rows: list[dict]) -> Path:

@@ -20,7 +20,8 @@ import torch
 
 from ..dataset import format as fmt
 from ..errors import UserError
-from ..metrics.image import WINDOW_SIZE, psnr, ssim_image, to_image
+from ..metrics.image import WINDOW_SIZE, ssim_image, to_image
+from ..metrics.psnr import psnr
 from ..metrics.temporal import DEPTH_TOLERANCE, POOL, SHADING_FLOOR, SHADING_WEBER, if_ssim, temporal_masks, temporal_scores
 from .crops import crop_frame_indices, write_crops
 from .frames import EvalFrame, frame_count, iter_frames

@@ -12,6 +12,8 @@ from statistics import median
 
 import numpy as np
 
+from ..metrics.psnr import mse_psnr
+
 RECOVERY_TOLERANCE_DB = 0.5
 METRICS = ("psnr", "ssim", "if_ssim", "temporal_error", "flip")
 
@@ -57,7 +59,7 @@ def method_stats(rows: list[dict]) -> dict:
     if count:
         mse = sum(n * e for n, _, e in holes) / count
         stats["disocclusion_l1"] = sum(n * e for n, e, _ in holes) / count
-        stats["disocclusion_psnr"] = math.inf if mse == 0 else 10.0 * math.log10(1.0 / mse)
+        stats["disocclusion_psnr"] = mse_psnr(mse)
     else:
         stats["disocclusion_l1"] = stats["disocclusion_psnr"] = None
     return stats

@@ -92,12 +92,12 @@ def _manifest_vs_tflite(npu: dict, tflite: NpuModel, name: str) -> list[str]:
         if t is None:
             problems.append(f"{where}: not in the file (listed in manifest.json)")
             continue
-        if t.shape != entry["shape"]:
-            problems.append(f"{where}: shape {t.shape}, manifest.json says {entry['shape']}")
+        if list(t.shape) != entry["shape"]:
+            problems.append(f"{where}: shape {list(t.shape)}, manifest.json says {entry['shape']}")
         if t.dtype != entry["dtype"]:
             problems.append(f"{where}: dtype {t.dtype}, manifest.json says {entry['dtype']}")
-        if t.scale != [entry["scale"]] or t.zero_point != [entry["zero_point"]]:
-            problems.append(f"{where}: quantization (scale {t.scale}, zero point {t.zero_point}) differs from "
+        if t.scale.tolist() != [entry["scale"]] or t.zero_point.tolist() != [entry["zero_point"]]:
+            problems.append(f"{where}: quantization (scale {t.scale.tolist()}, zero point {t.zero_point.tolist()}) differs from "
                             f"manifest.json (scale {entry['scale']}, zero point {entry['zero_point']})")
     for t in tflite.activations():
         if t.name not in listed:
@@ -113,21 +113,22 @@ def _tflite_vs_onnx(tflite: NpuModel, onnx: NpuModel, tflite_name: str, onnx_nam
     for io in tflite.inputs + tflite.outputs:
         a, b = tflite.tensors[io], onnx.tensors.get(io)
         if b is not None and len(b.shape) == 4 and nchw_to_nhwc(b.shape) != a.shape:
-            problems.append(f"{onnx_name}: tensor '{io}' shape {b.shape} (NCHW) does not match {tflite_name} {a.shape} (NHWC)")
+            problems.append(f"{onnx_name}: tensor '{io}' shape {list(b.shape)} (NCHW) does not match {tflite_name} {list(a.shape)} (NHWC)")
     for t in tflite.tensors.values():
-        if not t.scale:
+        if not t.quantized:
             continue
         other = onnx.tensors.get(t.name)
-        if other is None or not other.scale:
+        if other is None or not other.quantized:
             problems.append(f"{onnx_name}: tensor '{t.name}' has no quantization (it has in {tflite_name})")
             continue
-        if other.scale != t.scale or other.zero_point != t.zero_point:
+        if other.scale.tolist() != t.scale.tolist() or other.zero_point.tolist() != t.zero_point.tolist():
             problems.append(f"{onnx_name}: tensor '{t.name}' quantization differs from {tflite_name} "
                             f"(scale {_brief(other.scale)} vs {_brief(t.scale)}, zero point {_brief(other.zero_point)} vs {_brief(t.zero_point)})")
     return problems
 
 
-def _brief(values: list) -> str:
+def _brief(values: np.ndarray) -> str:
+    values = values.tolist()
     return str(values[0]) if len(values) == 1 else f"[{values[0]}, ... {len(values)} values]"
 
 

@@ -16,6 +16,7 @@ import json
 from pathlib import Path
 
 from ..errors import UserError
+from ..fileio import check_format, read_json
 
 FORMAT = "mnss-kit-bundle"
 FORMAT_VERSION = 1
@@ -66,25 +67,9 @@ def read_manifest(bundle: Path) -> dict:
         raise UserError(f"bundle directory not found: {bundle}")
     if not path.is_file():
         raise UserError(f"{path}: missing (not an mnss-kit bundle)")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise UserError(f"{path}: not valid JSON ({e})") from None
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise UserError(f"{path}: not an mnss-kit bundle manifest (format is not '{FORMAT}')")
-    check_version(data.get("format_version"), path)
+    data = read_json(path)
+    check_format(data, path, FORMAT, "format_version", FORMAT_VERSION, "an mnss-kit bundle manifest", NewerFormatError)
     return data
-
-
-def check_version(version, where) -> None:
-    """Refuse a bundle format this toolkit does not know; newer ones with an upgrade hint."""
-    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
-        raise UserError(f"{where}: format_version must be a positive integer, got {version!r}")
-    if version > FORMAT_VERSION:
-        raise NewerFormatError(
-            f"{where}: bundle format version {version} is newer than this mnss-kit reads "
-            f"(up to {FORMAT_VERSION}); upgrade mnss-kit to use this bundle"
-        )
 
 
 def schema_problems(manifest: dict) -> list[str]:

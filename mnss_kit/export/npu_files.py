@@ -1,11 +1,13 @@
-"""What the NPU files of a bundle declare: tensors, shapes and quantization of ``npu.tflite`` and ``npu_qdq.onnx``.
+"""The one reader of the NPU files: tensors, shapes and quantization of ``npu.tflite`` and ``npu_qdq.onnx``.
 
-Both readers return plain data so the manifest writer and ``bundle check`` compare like with
-like.  The ``.tflite`` file is read with the flatbuffer schema that ships with ai-edge-litert
-(``schema_py_generated``, object API), without an interpreter; the ONNX file with ``onnx``.
-Quantization parameters in the QDQ ONNX file are the scale and zero-point initializers of the
-``QuantizeLinear`` / ``DequantizeLinear`` nodes, keyed by the integer tensor they describe,
-which carries the same name as in the ``.tflite`` file (both files are written from one graph).
+The manifest writer, ``bundle check`` and the emulator (``emulate.npu_graph``, which adds the
+operators) all read tensors through here, into one :class:`NpuTensor`.  The ``.tflite`` file is
+read with the flatbuffer schema that ships with ai-edge-litert (``schema_py_generated``, object
+API), without an interpreter; the ONNX file with ``onnx``.  Quantization parameters in the QDQ
+ONNX file are the scale and zero-point initializers of the ``QuantizeLinear`` /
+``DequantizeLinear`` nodes, keyed by the integer tensor they describe, which carries the same name
+as in the ``.tflite`` file (both files are written from one graph).  Every problem with a file is a
+``UserError`` naming it and the tensor.
 """
 
 from __future__ import annotations
@@ -23,23 +25,37 @@ TFLITE_IDENTIFIER = b"TFL3"
 class NpuTensor:
     """One tensor: ``shape`` in the file's own layout (NHWC for .tflite, NCHW for ONNX I/O).
 
-    ``scale``/``zero_point`` are lists (one entry per tensor, or one per channel along ``axis``);
-    empty when the tensor is not quantized.
+    ``scale`` / ``zero_point``: float32 / int64 arrays, one entry per tensor or one per channel
+    along ``axis``; empty when the tensor is not quantized.  ``data``: a constant's values (None
+    for activations).
     """
 
     name: str
-    shape: list[int]
+    shape: tuple[int, ...]
     dtype: str
-    scale: list[float] = field(default_factory=list)
-    zero_point: list[int] = field(default_factory=list)
-    axis: int | None = None
-    constant: bool = False
+    scale: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float32))
+    zero_point: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    axis: int = 0
+    data: np.ndarray | None = field(default=None, repr=False)
 
-    def qparams(self) -> tuple[float, int]:
-        """``(scale, zero_point)`` of a per-tensor quantized tensor."""
-        if len(self.scale) != 1:
+    @property
+    def quantized(self) -> bool:
+        return self.scale.size > 0
+
+    @property
+    def constant(self) -> bool:
+        return self.data is not None
+
+    def qparams(self) -> tuple[np.float32, int]:
+        """``(scale, zero_point)`` of a per-tensor quantized tensor, the scale a float32 value."""
+        if self.scale.size != 1:
             raise ValueError(f"tensor {self.name} is not quantized per tensor")
-        return self.scale[0], self.zero_point[0]
+        return np.float32(self.scale[0]), int(self.zero_point[0])
+
+    def plain_qparams(self) -> tuple[float, int]:
+        """:meth:`qparams` as Python numbers, for JSON (the same float32 value, held in a float)."""
+        scale, zero_point = self.qparams()
+        return float(scale), zero_point
 
 
 @dataclass
@@ -50,7 +66,7 @@ class NpuModel:
 
     def activations(self) -> list[NpuTensor]:
         """Quantized, non-constant tensors, in file order."""
-        return [t for t in self.tensors.values() if not t.constant and t.scale]
+        return [t for t in self.tensors.values() if not t.constant and t.quantized]
 
 
 def _tflite_type_names() -> dict[int, str]:
@@ -74,31 +90,64 @@ def parse_tflite(data: bytes, source: str = "npu.tflite"):
     return model
 
 
+def text(name) -> str:
+    """A flatbuffer string (bytes or str) as str."""
+    return name.decode() if isinstance(name, bytes) else str(name)
+
+
+def tflite_tensors(model, raw: bytes, source: str) -> list[NpuTensor]:
+    """Every tensor of the first subgraph of ``model`` (from :func:`parse_tflite` on ``raw``), in file order."""
+    types = _tflite_type_names()
+    return [_tflite_tensor(model, raw, source, t, types) for t in model.subgraphs[0].tensors or []]
+
+
+def _tflite_tensor(model, raw: bytes, source: str, t, types: dict[int, str]) -> NpuTensor:
+    name = text(t.name)
+    dtype = types.get(t.type, f"type{t.type}")
+    shape = tuple(int(d) for d in (t.shape if t.shape is not None else []))
+    q = t.quantization
+    scale = np.asarray(q.scale if q is not None and q.scale is not None else [], dtype=np.float32).reshape(-1)
+    zps = np.asarray(q.zeroPoint if q is not None and q.zeroPoint is not None else [], dtype=np.int64).reshape(-1)
+    if scale.size and zps.size not in (1, scale.size):
+        raise UserError(f"{source}: tensor '{name}' has {scale.size} scales but {zps.size} zero points")
+    if scale.size and zps.size == 0:
+        zps = np.zeros(1, np.int64)
+    axis = int(q.quantizedDimension) if q is not None else 0
+    return NpuTensor(name, shape, dtype, scale, zps, axis, _constant(model, raw, source, t.buffer, name, shape, dtype))
+
+
+def _constant(model, raw: bytes, source: str, index: int, name: str, shape: tuple[int, ...], dtype: str) -> np.ndarray | None:
+    """The values a tensor's buffer holds; None for an activation (empty buffer)."""
+    buffers = model.buffers or []
+    if index >= len(buffers):
+        return None
+    b = buffers[index]
+    if b.data is not None and len(b.data):
+        data = np.asarray(b.data, dtype=np.uint8).tobytes()
+    elif b.offset and b.offset > 1:  # large models keep buffers after the flatbuffer
+        if b.offset + b.size > len(raw):
+            raise UserError(f"{source}: buffer {index} runs past the end of the file (truncated?)")
+        data = raw[b.offset:b.offset + b.size]
+    else:
+        return None
+    try:
+        np_type = np.dtype(dtype)
+    except TypeError:
+        raise UserError(f"{source}: constant tensor '{name}' has element type {dtype}, which mnss-kit does not read") from None
+    expected = int(np.prod(shape, dtype=np.int64)) * np_type.itemsize
+    if len(data) != expected:
+        raise UserError(f"{source}: constant tensor '{name}' holds {len(data)} bytes, shape {list(shape)} of {np_type.name} needs {expected}")
+    return np.frombuffer(data, dtype=np_type.newbyteorder("<")).astype(np_type).reshape(shape)
+
+
 def read_tflite(data: bytes, source: str = "npu.tflite") -> NpuModel:
     """Tensors, inputs and outputs of the first subgraph of a ``.tflite`` flatbuffer."""
     model = parse_tflite(data, source)
     graph = model.subgraphs[0]
-    types = _tflite_type_names()
-    tensors = {}
-    for t in graph.tensors:
-        name = t.name.decode() if isinstance(t.name, bytes) else t.name
-        buffer = model.buffers[t.buffer] if model.buffers and t.buffer < len(model.buffers) else None
-        constant = buffer is not None and buffer.data is not None and len(buffer.data) > 0
-        q = t.quantization
-        scale = [] if q is None or q.scale is None else [float(np.float32(s)) for s in q.scale]
-        zps = [] if q is None or q.zeroPoint is None else [int(z) for z in q.zeroPoint]
-        tensors[name] = NpuTensor(
-            name=name,
-            shape=[int(d) for d in (t.shape if t.shape is not None else [])],
-            dtype=types.get(t.type, f"type{t.type}"),
-            scale=scale,
-            zero_point=zps,
-            axis=int(q.quantizedDimension) if q is not None and len(scale) > 1 else None,
-            constant=constant,
-        )
-    names = [graph.tensors[i].name for i in graph.inputs], [graph.tensors[i].name for i in graph.outputs]
-    inputs, outputs = ([n.decode() if isinstance(n, bytes) else n for n in group] for group in names)
-    return NpuModel(inputs, outputs, tensors)
+    tensors = tflite_tensors(model, data, source)
+    inputs = [tensors[i].name for i in graph.inputs]
+    outputs = [tensors[i].name for i in graph.outputs]
+    return NpuModel(inputs, outputs, {t.name: t for t in tensors})
 
 
 _ONNX_TYPES = {1: "float32", 3: "int8", 2: "uint8", 5: "int16", 6: "int32", 7: "int64"}
@@ -120,7 +169,7 @@ def read_onnx(data: bytes, source: str = "npu_qdq.onnx") -> NpuModel:
         tt = value.type.tensor_type
         tensors[value.name] = NpuTensor(
             name=value.name,
-            shape=[int(d.dim_value) for d in tt.shape.dim],
+            shape=tuple(int(d.dim_value) for d in tt.shape.dim),
             dtype=_ONNX_TYPES.get(tt.elem_type, f"type{tt.elem_type}"),
         )
     for node in graph.node:
@@ -130,18 +179,18 @@ def read_onnx(data: bytes, source: str = "npu_qdq.onnx") -> NpuModel:
         scale, zp = inits.get(node.input[1]), inits.get(node.input[2])
         if scale is None or zp is None:
             continue
-        entry = tensors.setdefault(integer, NpuTensor(integer, [], str(zp.dtype)))
+        entry = tensors.setdefault(integer, NpuTensor(integer, (), str(zp.dtype)))
         entry.dtype = str(zp.dtype)
-        entry.scale = [float(s) for s in np.atleast_1d(scale).astype(np.float32)]
-        entry.zero_point = [int(z) for z in np.atleast_1d(zp)]
-        if len(entry.scale) > 1:
+        entry.scale = np.atleast_1d(scale).astype(np.float32).reshape(-1)
+        entry.zero_point = np.atleast_1d(zp).astype(np.int64).reshape(-1)
+        if entry.scale.size > 1:
             entry.axis = next((a.i for a in node.attribute if a.name == "axis"), 1)
         if integer in inits:
-            entry.constant = True
-            entry.shape = list(inits[integer].shape)
+            entry.data = inits[integer]
+            entry.shape = tuple(inits[integer].shape)
     return NpuModel([v.name for v in graph.input], [v.name for v in graph.output], tensors)
 
 
-def nchw_to_nhwc(shape: list[int]) -> list[int]:
+def nchw_to_nhwc(shape: tuple[int, ...]) -> tuple[int, ...]:
     n, c, h, w = shape
-    return [n, h, w, c]
+    return n, h, w, c

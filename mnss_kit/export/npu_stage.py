@@ -10,7 +10,6 @@ shape, keeping its quantization and (for constants) its stored integers unchange
 from __future__ import annotations
 
 import copy
-import json
 import logging
 import math
 from dataclasses import dataclass, field
@@ -20,6 +19,7 @@ import numpy as np
 
 from ..errors import UserError
 from ..model.families import npu_module
+from ..fileio import read_json
 
 log = logging.getLogger(__name__)
 QUANTIZED_FILES = ("npu.tflite", "npu_qdq.onnx")
@@ -126,10 +126,7 @@ def load_quantized_dir(directory: Path) -> tuple[NpuArtifacts, dict]:
         raise UserError(f"{directory}: not an mnss-kit quantize directory (missing {', '.join(missing)})")
     report = {}
     if (directory / "report.json").is_file():
-        try:
-            report = json.loads((directory / "report.json").read_text())
-        except json.JSONDecodeError as e:
-            raise UserError(f"{directory / 'report.json'}: not valid JSON ({e})") from None
+        report = read_json(directory / "report.json")
     quantization = {
         "source": "directory",
         "directory": str(directory),

@@ -65,7 +65,7 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
     tflite = read_tflite(npu.tflite)
     _check_npu_io(tflite)
     npu_io = {"model": TFLITE_NAME, "input": tflite.inputs[0], "output": tflite.outputs[0],
-              "input_q": tflite.tensors[tflite.inputs[0]].qparams(), "output_q": tflite.tensors[tflite.outputs[0]].qparams()}
+              "input_q": tflite.tensors[tflite.inputs[0]].plain_qparams(), "output_q": tflite.tensors[tflite.outputs[0]].plain_qparams()}
     state = {k: v.detach().cpu().numpy() for k, v in model.state_dict().items()}
     plan = family_of(model).gpu_plan(model.config, state, lr_size, npu_io, request.profile)
     _check_boundary_sizes(tflite, plan)
@@ -142,9 +142,9 @@ def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int) -
                             f"export from the checkpoint to quantize for another size")
         size = (w, h)
     else:
-        from .command import DEFAULT_RESOLUTION
+        from ..split.plan import DEFAULT_RESOLUTION
 
-        size = parse_resolution(request.resolution or DEFAULT_RESOLUTION)
+        size = parse_resolution(request.resolution) if request.resolution else DEFAULT_RESOLUTION
     if size[0] % scale or size[1] % scale:
         raise UserError(f"output size {size[0]}x{size[1]} is not a multiple of the model's scale {scale}")
     return size
@@ -165,8 +165,8 @@ def _check_npu_io(tflite) -> None:
                         "a bundle's NPU graph takes one image and returns one")
     for name in tflite.inputs + tflite.outputs:
         t = tflite.tensors[name]
-        if t.dtype != "int8" or len(t.scale) != 1 or len(t.shape) != 4 or t.shape[0] != 1:
-            raise UserError(f"npu.tflite tensor '{name}' is {t.dtype} {t.shape}; the bundle needs an int8 [1, H, W, C] "
+        if t.dtype != "int8" or t.scale.size != 1 or len(t.shape) != 4 or t.shape[0] != 1:
+            raise UserError(f"npu.tflite tensor '{name}' is {t.dtype} {list(t.shape)}; the bundle needs an int8 [1, H, W, C] "
                             "per-tensor quantized tensor")
 
 
@@ -177,7 +177,7 @@ def _check_boundary_sizes(tflite, plan: dict) -> None:
         for tensor, buffer in {**step["inputs"], **step["outputs"]}.items():
             values = int(np.prod(tflite.tensors[tensor].shape))
             if buffers[buffer]["words"] != -(-values // 4):
-                raise UserError(f"npu.tflite tensor '{tensor}' has shape {tflite.tensors[tensor].shape}, which does not "
+                raise UserError(f"npu.tflite tensor '{tensor}' has shape {list(tflite.tensors[tensor].shape)}, which does not "
                                 f"fit the bundle buffer '{buffer}' ({buffers[buffer]['words']} words): export at the "
                                 "size the quantize directory was made for")
 

@@ -7,14 +7,13 @@ after :func:`mnss_kit.export.check.check_bundle` passes on the staging copy, thr
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .. import __version__
-from ..fileio import atomic_directory
+from ..fileio import atomic_directory, json_text
 from ..gpu.glsl import flatten
 from ..gpu.plan import WEIGHT_ALIGNMENT, WEIGHTS_FILE, pack_weights
 from ..model.checkpoint import code_version
@@ -72,7 +71,7 @@ def stage_bundle(root: Path, parts: BundleParts) -> dict:
     golden = write_golden(root, parts.golden, parts.scale, table)
     manifest = build_manifest(parts, passes, blocks, table, golden)
     manifest["files"] = file_table(root)
-    (root / MANIFEST_NAME).write_text(json.dumps(manifest, indent=2) + "\n")
+    (root / MANIFEST_NAME).write_text(json_text(manifest))
     return manifest
 
 
@@ -89,7 +88,7 @@ def build_manifest(parts: BundleParts, passes: list[dict], blocks: list[dict], t
     w, h = parts.lr_size
     npu_model = read_tflite(parts.npu.tflite, TFLITE_NAME)
     npu_in, npu_out = npu_model.inputs[0], npu_model.outputs[0]
-    in_q, out_q = npu_model.tensors[npu_in].qparams(), npu_model.tensors[npu_out].qparams()
+    in_q, out_q = npu_model.tensors[npu_in].plain_qparams(), npu_model.tensors[npu_out].plain_qparams()
     schedule = parts.plan["schedule"]
     return {
         "format": FORMAT,
@@ -123,7 +122,7 @@ def build_manifest(parts: BundleParts, passes: list[dict], blocks: list[dict], t
             "onnx_layout": conventions.LAYOUT_TORCH,
             "inputs": npu_model.inputs,
             "outputs": npu_model.outputs,
-            "tensors": [{"name": t.name, "shape": t.shape, "dtype": t.dtype, "scale": t.scale[0], "zero_point": t.zero_point[0]}
+            "tensors": [{"name": t.name, "shape": list(t.shape), "dtype": t.dtype, "scale": float(t.scale[0]), "zero_point": int(t.zero_point[0])}
                         for t in npu_model.activations()],
             "requantization_profile": parts.profile,
             "quantization": parts.npu.quantization,

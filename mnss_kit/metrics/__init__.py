@@ -1,23 +1,14 @@
-"""Image and temporal quality metrics shared by training, evaluation and quantization.
+"""Image and temporal quality metrics shared by training, evaluation, quantization and the emulator.
 
-``image``    PSNR, SSIM (PyTorch, differentiable; numpy wrappers)
+``psnr``     PSNR in numpy (no torch: the emulator imports it); ``inf`` for identical images
+``image``    SSIM (PyTorch, differentiable; numpy wrappers) and PSNR of tensors
 ``temporal`` IF-SSIM and the temporal warping error
 ``flip``     FLIP through flip-evaluator (imported on use)
+
+Import the torch modules by name (``from mnss_kit.metrics.image import ssim``): this package
+itself loads only the numpy part, so importing it never loads torch.
 """
 
-from .image import psnr, psnr_torch, ssim, ssim_image, ssim_map, ssim_map_image
-from .temporal import TemporalMasks, if_ssim, temporal_error, temporal_masks, temporal_scores
+from .psnr import mse_psnr, psnr
 
-__all__ = [
-    "psnr",
-    "psnr_torch",
-    "ssim",
-    "ssim_image",
-    "ssim_map",
-    "ssim_map_image",
-    "TemporalMasks",
-    "if_ssim",
-    "temporal_error",
-    "temporal_masks",
-    "temporal_scores",
-]
+__all__ = ["mse_psnr", "psnr"]

@@ -1,16 +1,15 @@
-"""Per-image quality metrics: PSNR and SSIM.
+"""Per-image quality metrics in PyTorch: SSIM, and PSNR of tensors.
 
 SSIM is written once, in PyTorch on ``(N, C, H, W)`` tensors, so the training
 loss (1 - SSIM) and the evaluation use the very same function.  It follows
 Wang et al. 2004: an 11x11 Gaussian window (sigma 1.5), K1 = 0.01, K2 = 0.03,
 statistics over the window's valid positions only (no padding, as in the
 authors' reference code), per channel, then averaged.  The numpy wrappers take
-``(H, W, C)`` display images in [0, 1].
+``(H, W, C)`` display images in [0, 1].  PSNR on arrays is in ``psnr.py`` (no torch);
+``psnr_torch`` here is its batched tensor form for training.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 import torch
@@ -19,16 +18,6 @@ import torch.nn.functional as F
 WINDOW_SIZE = 11
 WINDOW_SIGMA = 1.5
 K1, K2 = 0.01, 0.03
-
-
-def psnr(output: np.ndarray, reference: np.ndarray, data_range: float = 1.0) -> float:
-    """PSNR in dB of two equal-shape arrays (any layout); ``inf`` for identical images."""
-    a = np.asarray(output, dtype=np.float64)
-    b = np.asarray(reference, dtype=np.float64)
-    if a.shape != b.shape:
-        raise ValueError(f"psnr: shapes differ {a.shape} vs {b.shape}")
-    mse = float(np.mean((a - b) ** 2))
-    return math.inf if mse == 0.0 else 10.0 * math.log10(data_range * data_range / mse)
 
 
 def psnr_torch(output: torch.Tensor, reference: torch.Tensor, data_range: float = 1.0) -> torch.Tensor:

@@ -18,18 +18,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..metrics.image import psnr
+from ..metrics.psnr import psnr
 from .graph import Graph
 from .params import int16_blocker
+
+
+def power_ratio_db(signal: float, noise: float) -> float:
+    """SQNR in dB from summed signal and noise powers; ``inf`` without noise.
+
+    A ratio of powers, not PSNR's peak over MSE (``metrics.psnr``); numpy's log10, as the
+    quantize reports have always been computed.
+    """
+    return float("inf") if noise == 0.0 else 10.0 * np.log10(max(signal, 1e-30) / noise)
 
 
 def sqnr_db(reference: np.ndarray, approx: np.ndarray) -> float:
     """``10 log10(sum ref^2 / sum (ref - approx)^2)``; inf when equal."""
     noise = float(np.sum((np.asarray(reference, np.float64) - approx) ** 2))
     signal = float(np.sum(np.asarray(reference, np.float64) ** 2))
-    if noise == 0.0:
-        return float("inf")
-    return 10.0 * np.log10(max(signal, 1e-30) / noise)
+    return power_ratio_db(signal, noise)
 
 
 def tensor_sqnr(float_graph: Graph, quantized: Graph, model: bytes, samples) -> tuple[dict[str, float], list[dict[str, np.ndarray]]]:
@@ -54,7 +61,7 @@ def tensor_sqnr(float_graph: Graph, quantized: Graph, model: bytes, samples) -> 
             signal[n] += float(np.sum(ref**2))
             noise[n] += float(np.sum((ref - dequantize_tensor(quantized, n, q[n])) ** 2))
         outputs.append({n: floats[n] for n in float_graph.outputs})
-    sqnr = {n: float("inf") if noise[n] == 0 else 10.0 * np.log10(max(signal[n], 1e-30) / noise[n]) for n in names}
+    sqnr = {n: power_ratio_db(signal[n], noise[n]) for n in names}
     return sqnr, outputs
 
 

@@ -12,7 +12,6 @@ it with checkpoint loading and calibration data.  Written into ``out_dir``:
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
 from pathlib import Path
 from typing import Sequence
@@ -20,7 +19,8 @@ from typing import Sequence
 import numpy as np
 import torch
 
-from ..metrics.image import psnr
+from ..fileio import json_text
+from ..metrics.psnr import psnr
 from . import artifacts
 from .calibrate import calibrate
 from .graph import Graph, op_graph, prefix_graph
@@ -98,10 +98,10 @@ def write_artifacts(art: QuantizedArtifacts, out_dir: str | Path) -> dict[str, i
     out = Path(out_dir)
     (out / "npu.tflite").write_bytes(art.tflite)
     (out / "npu_qdq.onnx").write_bytes(art.onnx)
-    (out / "encodings.json").write_text(json.dumps(artifacts.encodings(art.graph), indent=2) + "\n")
+    (out / "encodings.json").write_text(json_text(artifacts.encodings(art.graph)))
     files = {n: (out / n).stat().st_size for n in ("npu.tflite", "npu_qdq.onnx", "encodings.json")}
     art.report["files"] = files
-    (out / "report.json").write_text(json.dumps(_plain(art.report), indent=2) + "\n")
+    (out / "report.json").write_text(json_text(art.report))
     (out / "report.md").write_text(artifacts.report_markdown(art.report))
     return files
 
@@ -194,17 +194,3 @@ def _tensor_rows(graph: Graph, sqnr: dict, only_psnr: dict) -> list[dict]:
             }
         )
     return rows
-
-
-def _plain(value):
-    """JSON-safe copy: numpy scalars to Python, infinities to strings."""
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, (np.floating, float)):
-        v = float(value)
-        return v if np.isfinite(v) else ("inf" if v > 0 else "-inf" if v < 0 else "nan")
-    if isinstance(value, np.integer):
-        return int(value)
-    return value

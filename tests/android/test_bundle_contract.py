@@ -15,6 +15,7 @@ import pytest
 
 from mnss_kit.emulate.compare import compare_dumps
 from mnss_kit.emulate.dump import read_dump
+from mnss_kit.emulate.sequence import run_dataset
 from mnss_kit.export.check import check_files
 from mnss_kit.export.manifest import load_schema
 
@@ -160,7 +161,7 @@ def emulator_dump(tiny_bundle, manifest, synthetic_dataset, tmp_path_factory) ->
     assert match, f"golden frames do not name their dataset sequence: {manifest['golden']['source']}"
     out = tmp_path_factory.mktemp("emulator") / "out"
     emulator = Emulator(tiny_bundle, npu_profile="tflite-ref", npu_backend="numpy", gpu_backend="numpy")
-    emulator.run_sequence(synthetic_dataset / match.group(1), out_dir=out, dump=True, frames=len(manifest["golden"]["frames"]))
+    run_dataset(emulator, synthetic_dataset / match.group(1), out_dir=out, dump=True, frames=len(manifest["golden"]["frames"]))
     (index,) = out.rglob("index.json")
     return index.parent
 

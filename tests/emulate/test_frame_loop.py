@@ -18,7 +18,7 @@ from mnss_kit.emulate.bundle import BundleSpec
 from mnss_kit.emulate.frame_loop import Emulator
 from mnss_kit.model.mnss.config import aa_input_channels
 from mnss_kit.emulate.npu_graph import read_npu_graph
-from mnss_kit.emulate.sequence import sequence_frames
+from mnss_kit.emulate.sequence import run_dataset, sequence_frames
 from mnss_kit.errors import UserError
 from mnss_kit.model.mnss import gpu_plan
 from mnss_kit.model.mnss.gpu_stage import GpuStage
@@ -106,7 +106,7 @@ def test_every_named_tensor_in_execution_order(spec, synthetic_dataset):
 
 def test_run_sequence_writes_outputs_metrics_and_dumps(spec, synthetic_dataset, tmp_path):
     out = tmp_path / "out"
-    report = Emulator(spec).run_sequence(synthetic_dataset / "pan_cut", out_dir=out, dump=True, frames=6)
+    report = run_dataset(Emulator(spec), synthetic_dataset / "pan_cut", out_dir=out, dump=True, frames=6)
     rows = report["sequences"]["pan_cut"]["frames"]
     assert [r["frame"] for r in rows] == list(range(6))
     assert [r["reset"] for r in rows] == [True, False, False, False, False, True]
@@ -137,7 +137,7 @@ def test_data_of_another_size_is_a_user_error(tmp_path, synthetic_dataset):
     spec = make_spec()
     spec.manifest["lr_size"] = [16, 12]
     with pytest.raises(UserError, match="lr_size"):
-        Emulator(spec).run_sequence(synthetic_dataset / "pan")
+        run_dataset(Emulator(spec), synthetic_dataset / "pan")
 
 
 def test_mesa_gpu_backend_matches_numpy(spec, synthetic_dataset):

@@ -18,7 +18,7 @@ import pytest
 from mnss_kit.dataset.format import read_meta
 from mnss_kit.emulate.frame_loop import Emulator
 from mnss_kit.emulate.npu import NPU_PROFILES
-from mnss_kit.emulate.sequence import sequence_frames
+from mnss_kit.emulate.sequence import run_dataset, sequence_frames
 from mnss_kit.errors import UserError
 from mnss_kit.export.manifest import file_table
 
@@ -267,4 +267,4 @@ def test_data_of_another_scale_is_a_user_error(root, tmp_path):
 
     write_synthetic_sequence(tmp_path / "x3", name="x3", lr_size=(32, 24), scale=3, frames=2)
     with pytest.raises(UserError, match="scale 3, the bundle is x2"):
-        Emulator(root / "bundle").run_sequence(tmp_path / "x3")
+        run_dataset(Emulator(root / "bundle"), tmp_path / "x3")

@@ -12,8 +12,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from litert_ops import PADDING, OneOpRunner, TensorSpec, single_op_model
+
 from mnss_kit.emulate import kernels
-from mnss_kit.emulate.litert_ops import PADDING, OneOpRunner, TensorSpec, single_op_model
 
 pytest.importorskip("ai_edge_litert")
 

@@ -15,8 +15,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from litert_ops import ACTIVATION, PADDING, OneOpRunner, TensorSpec, single_op_model
+
 from mnss_kit.emulate import kernels
-from mnss_kit.emulate.litert_ops import ACTIVATION, PADDING, OneOpRunner, TensorSpec, single_op_model
 from mnss_kit.emulate.profiles import KERNEL_SETS
 
 pytest.importorskip("ai_edge_litert")

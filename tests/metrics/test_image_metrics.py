@@ -5,7 +5,8 @@ import pytest
 import torch
 from numpy.lib.stride_tricks import sliding_window_view
 
-from mnss_kit.metrics.image import psnr, psnr_torch, ssim, ssim_image, ssim_map_image
+from mnss_kit.metrics.image import psnr_torch, ssim, ssim_image, ssim_map_image
+from mnss_kit.metrics.psnr import psnr
 
 
 def reference_ssim(a: np.ndarray, b: np.ndarray) -> float:

@@ -7,6 +7,7 @@ import torch
 from ai_edge_litert import schema_py_generated as schema
 from onnx import numpy_helper
 
+from mnss_kit.export.npu_files import parse_tflite
 from mnss_kit.quantize.graph import op_graph
 from mnss_kit.quantize.onnx_writer import to_onnx
 from mnss_kit.quantize.runtime import RESOLVERS, OnnxRunner, QuantizedStage, TfliteRunner, dequantize_tensor, quantize_inputs, swap_stage
@@ -14,13 +15,8 @@ from mnss_kit.quantize.runtime import RESOLVERS, OnnxRunner, QuantizedStage, Tfl
 from .conftest import sqnr
 
 
-def read_tflite(data: bytes):
-    assert schema.Model.ModelBufferHasIdentifier(data, 0)
-    return schema.ModelT.InitFromObj(schema.Model.GetRootAs(data, 0))
-
-
 def test_scales_and_zero_points_identical_in_both_files(recon):
-    model = read_tflite(recon.tflite)
+    model = parse_tflite(recon.tflite)
     sg = model.subgraphs[0]
     onnx_model = onnx.load_from_string(to_onnx(recon.graph).SerializeToString())
     inits = {i.name: numpy_helper.to_array(i) for i in onnx_model.graph.initializer}
@@ -58,7 +54,7 @@ def test_int8_spec_rules(fixture, request):
             w, b = g.tensors[op.inputs[1]], g.tensors[op.inputs[2]]
             assert w.data.dtype == np.int8 and np.abs(w.data.astype(int)).max() <= 127 and b.data.dtype == np.int32
             assert w.axis == (0 if op.kind == "CONV_2D" else 3)
-    model = read_tflite(q.tflite)
+    model = parse_tflite(q.tflite)
     versions = {(c.builtinCode, c.version) for c in model.operatorCodes}
     assert all(v == 1 for code, v in versions if code == schema.BuiltinOperator.DEPTH_TO_SPACE)
     sg = model.subgraphs[0]

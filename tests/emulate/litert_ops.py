@@ -5,11 +5,9 @@ model holding a single int8 operator with known scales and zero points, runs
 it under one of LiteRT's kernel sets and compares with the numpy kernel.
 No TensorFlow is needed: the schema's object API (``ModelT``, ``TensorT``,
 ...) is packed with a flatbuffers ``Builder`` and the file identifier
-``TFL3``.  The full-model writer of the quantize stage builds bigger graphs;
-both could later share one flatbuffer-building core.
-
-``ai_edge_litert`` is imported inside the functions so that importing the
-emulator stays light.
+``TFL3``.  A test helper: the toolkit writes ``.tflite`` files only through
+``mnss_kit.quantize.tflite_writer``; these one-op models set scales, zero points
+and options directly, to test each kernel on its own.
 """
 
 from __future__ import annotations
@@ -19,7 +17,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .profiles import get_kernel_set
+from mnss_kit.emulate.profiles import get_kernel_set
 
 _TYPES = {"float32": 0, "int32": 2, "int8": 9}
 
