@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..macs import BILINEAR
+from ..mac_units import BILINEAR
 
 
 def fixed_macs(c) -> dict[str, float]:
