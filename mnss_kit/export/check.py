@@ -4,7 +4,7 @@ Order: the manifest (format, version gate, schema), then every listed file (pres
 SHA-256; no unlisted files), then the NPU files (tensor names, shapes and quantization of the
 manifest against ``npu.tflite``, and ``npu.tflite`` against ``npu_qdq.onnx``), the boundary
 tensors (against the NPU tensors, remaps recomputed), the GPU weight blocks and the golden
-arrays (inside their files, sizes matching shape and dtype), and the schedule (every pass,
+arrays (inside their files, sizes matching shape and dtype, float values finite), and the schedule (every pass,
 resource and weight block it names exists).  Each problem is one line naming the file or tensor.
 """
 
@@ -76,7 +76,7 @@ def check_npu(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
     except UserError as e:
         return [str(e)]
     problems = _manifest_vs_tflite(npu, tflite, tflite_name)
-    problems += _tflite_vs_onnx(tflite, onnx, tflite_name, onnx_name)
+    problems += tflite_vs_onnx(tflite, onnx, tflite_name, onnx_name)
     return problems
 
 
@@ -105,7 +105,7 @@ def _manifest_vs_tflite(npu: dict, tflite: NpuModel, name: str) -> list[str]:
     return problems
 
 
-def _tflite_vs_onnx(tflite: NpuModel, onnx: NpuModel, tflite_name: str, onnx_name: str) -> list[str]:
+def tflite_vs_onnx(tflite: NpuModel, onnx: NpuModel, tflite_name: str, onnx_name: str) -> list[str]:
     problems = []
     for role in ("inputs", "outputs"):
         if getattr(tflite, role) != getattr(onnx, role):
@@ -174,7 +174,18 @@ def check_weights(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
             problems.append(f"{where}: offset {block['offset']} is not a multiple of {weights['alignment']}")
         if sha256_bytes(data[block["offset"]:end]) != block["sha256"]:
             problems.append(f"{where}: SHA-256 differs from manifest.json")
+            continue
+        problems += _non_finite(data[block["offset"]:end], weights["dtype"], where)
     return problems
+
+
+def _non_finite(raw: bytes, dtype: str, where: str) -> list[str]:
+    """A problem line if the little-endian float values in ``raw`` hold NaN or Inf (none for integers)."""
+    kind = np.dtype(dtype).newbyteorder("<")
+    if kind.kind != "f" or len(raw) % kind.itemsize:
+        return []
+    bad = int(np.count_nonzero(~np.isfinite(np.frombuffer(raw, dtype=kind))))
+    return [f"{where}: {bad} NaN or Inf value{'s' if bad != 1 else ''}"] if bad else []
 
 
 def check_golden(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
@@ -195,6 +206,8 @@ def check_golden(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
             expected = int(np.prod(array["shape"])) * DTYPE_SIZES[array["dtype"]]
             if listed[name]["bytes"] != expected:
                 problems.append(f"{name}: {listed[name]['bytes']} bytes, shape {array['shape']} of {array['dtype']} needs {expected}")
+                continue
+            problems += _non_finite((root / name).read_bytes(), array["dtype"], f"{name}: golden '{key}' of frame {frame['index']}")
     return problems
 
 
