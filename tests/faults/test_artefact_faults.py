@@ -203,6 +203,13 @@ def nan_gpu_weights(a: Artefacts, scratch: Path):
     return ["bundle", "check", bundle], ["gpu_weights.bin", f"'{block}'", "NaN or Inf"]
 
 
+def emulate_nan_gpu_weights(a: Artefacts, scratch: Path):
+    bundle = _copy(a.bundle, scratch)
+    block = _nan_in_gpu_weights(bundle)
+    argv = ["emulate", bundle, "--data", a.data / "pan", "--out", scratch / "out", "--frames", 1, "--no-progress"]
+    return argv, [str(bundle), "gpu_weights.bin", f"'{block}'", "NaN or Inf"]
+
+
 def inf_golden(key: str):
     def prepare(a: Artefacts, scratch: Path):
         bundle = _copy(a.bundle, scratch)
@@ -237,6 +244,7 @@ CASES = {
     "quantize-nan-aa-weight": (non_finite_weight("quantize", "aa.net.2.weight", float("nan")), 2),
     "export-inf-recon-bias": (non_finite_weight("export", "recon.body.0.bias", float("inf")), 2),
     "bundle-check-nan-gpu-weights": (nan_gpu_weights, 1),
+    "emulate-nan-gpu-weights": (emulate_nan_gpu_weights, 2),
     "bundle-check-inf-golden-color": (inf_golden("color"), 1),
     "bundle-check-inf-golden-depth": (inf_golden("depth"), 1),
     # (4) corrupt NPU files in a quantize directory
