@@ -154,9 +154,14 @@ def _check_same_model(report: dict, ckpt: str, directory: str) -> None:
 
     made_from = report["checkpoint"]  # load_quantized_dir checked it records a SHA-256
     given = sha256_file(checkpoint.resolve(ckpt))
-    if given != made_from["sha256"]:
-        raise UserError(f"{directory} was quantized from {made_from.get('path')} (SHA-256 {made_from['sha256'][:12]}...), "
-                        f"not from {ckpt} (SHA-256 {given[:12]}...); give --checkpoint the file it came from")
+    if given == made_from["sha256"]:
+        return
+    then, now = made_from["sha256"][:12], given[:12]
+    if str(made_from.get("path")) == str(ckpt):
+        raise UserError(f"{ckpt} changed since {directory} was quantized from it (SHA-256 {then}... then, {now}... now); "
+                        "quantize it again")
+    raise UserError(f"{directory} was quantized from {made_from.get('path')} (SHA-256 {then}...), not from {ckpt} "
+                    f"(SHA-256 {now}...); give --checkpoint the file it came from")
 
 
 def _check_npu_io(tflite, hr_size: tuple[int, int]) -> None:

@@ -150,7 +150,7 @@ def other_checkpoint(a: Artefacts, scratch: Path):
 def checkpoint_replaced_since_quantize(a: Artefacts, scratch: Path):
     qdir, moved = _copy(a.qdir, scratch), Path(shutil.copy(a.narrow, scratch / "model.pt"))
     _edit_json(qdir / "report.json", lambda r: r["checkpoint"].update(path=str(moved)))
-    return _export_qdir(qdir, None, scratch), [str(moved), str(qdir)]
+    return _export_qdir(qdir, None, scratch), [str(moved), "changed since", str(qdir)]
 
 
 def missing_file(name: str):
