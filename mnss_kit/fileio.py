@@ -1,4 +1,4 @@
-"""Atomic writes: a reader never sees a half-written file or directory.  And file hashes."""
+"""Atomic writes (a reader never sees a half-written file or directory), and file hashes."""
 
 from __future__ import annotations
 

@@ -4,8 +4,8 @@ Order: the manifest (format, version gate, schema), then every listed file (pres
 SHA-256; no unlisted files), then the NPU files (tensor names, shapes and quantization of the
 manifest against ``npu.tflite``, and ``npu.tflite`` against ``npu_qdq.onnx``), the boundary
 tensors (against the NPU tensors, remaps recomputed), the GPU weight blocks and the golden
-arrays (inside their files, sizes matching shape and dtype, float values finite), and the schedule (every pass,
-resource and weight block it names exists).  Each problem is one line naming the file or tensor.
+arrays (inside their files, sizes matching shape and dtype, float values finite), and the
+schedule (every pass, resource and weight block it names exists).  Each problem is one line naming the file or tensor.
 """
 
 from __future__ import annotations
@@ -17,7 +17,8 @@ import numpy as np
 from ..errors import UserError
 from .boundary import texture_remaps
 from .gpu_plan import WEIGHTS_PREFIX
-from .manifest import bundle_files, read_manifest, schema_problems, sha256_bytes, sha256_file
+from ..fileio import sha256_file
+from .manifest import bundle_files, read_manifest, schema_problems, sha256_bytes
 from .npu_files import NpuModel, nchw_to_nhwc, read_onnx, read_tflite
 
 DTYPE_SIZES = {"int8": 1, "uint8": 1, "int16": 2, "float16": 2, "float32": 4, "int32": 4}

@@ -16,7 +16,7 @@ import json
 from pathlib import Path
 
 from ..errors import UserError
-from ..fileio import sha256_file  # noqa: F401  (re-exported: the bundle's file hashes)
+from ..fileio import sha256_file
 
 FORMAT = "mnss-kit-bundle"
 FORMAT_VERSION = 1

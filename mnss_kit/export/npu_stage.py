@@ -141,7 +141,7 @@ def load_quantized_dir(directory: Path) -> tuple[NpuArtifacts, dict]:
     onnx = read_onnx(onnx_bytes, str(directory / "npu_qdq.onnx"))
     problems = tflite_vs_onnx(tflite, onnx, "npu.tflite", "npu_qdq.onnx")
     if problems:
-        raise UserError(f"{directory}/{problems[0]}")
+        raise UserError(str(directory / problems[0]))  # the line starts with the file's name
     quantization = {
         "source": "directory",
         "directory": str(directory),

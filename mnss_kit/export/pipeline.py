@@ -199,7 +199,7 @@ def placement_of(name: str, model_placement: str, placement: dict | None) -> str
 
 def model_section(ckpt: str, record: dict) -> dict:
     from ..model import checkpoint
-    from .manifest import sha256_file
+    from ..fileio import sha256_file
 
     path = checkpoint.resolve(ckpt)
     return {

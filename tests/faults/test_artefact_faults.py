@@ -10,7 +10,6 @@ command would read it (no ``--out`` directory, no ``.staging.`` leftovers).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import logging
 import re
@@ -24,6 +23,7 @@ import pytest
 import torch
 
 from mnss_kit.cli import main
+from mnss_kit.export.manifest import sha256_bytes
 from mnss_kit.fileio import sha256_file
 from mnss_kit.model import checkpoint
 from mnss_kit.model.config import load_model_config
@@ -108,7 +108,7 @@ def _nan_in_gpu_weights(bundle: Path) -> str:
     data = bytearray(path.read_bytes())
     data[block["offset"]:block["offset"] + 4] = np.float32(np.nan).tobytes()
     path.write_bytes(bytes(data))
-    digest = hashlib.sha256(bytes(data[block["offset"]:block["offset"] + block["bytes"]])).hexdigest()
+    digest = sha256_bytes(bytes(data[block["offset"]:block["offset"] + block["bytes"]]))
     _rehash(bundle, path.name, lambda m: m["gpu"]["weights"]["blocks"][0].update(sha256=digest))
     return block["name"]
 
