@@ -1,4 +1,4 @@
-"""Atomic writes: a reader never sees a half-written file or directory.
+"""Atomic writes (a reader never sees a half-written file or directory), and file hashes.
 
 JSON files hold no NaN or infinity (JSON has neither): ``json_safe`` writes them as ``null``.  An
 infinite PSNR (identical images, ``metrics.psnr``) is therefore ``null`` in every JSON report.
@@ -7,6 +7,7 @@ infinite PSNR (identical images, ``metrics.psnr``) is therefore ``null`` in ever
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import math
 import os
@@ -18,6 +19,17 @@ from typing import Iterator
 import numpy as np
 
 from .errors import UserError
+
+HASH_CHUNK = 1 << 20
+
+
+def sha256_file(path: str | os.PathLike) -> str:
+    """Hex SHA-256 of a file, read in chunks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(HASH_CHUNK), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:

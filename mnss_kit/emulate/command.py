@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 HELP = "run a bundle on the desktop (bit-exact NPU profiles, GPU passes in numpy or Mesa), or compare tensor dumps"
@@ -69,10 +70,13 @@ def _emulate(args: argparse.Namespace) -> int:
 
 def _compare(args: argparse.Namespace) -> int:
     from ..fileio import atomic_write_json
-    from .compare import compare_paths, format_report
+    from .compare import compare_paths, format_report, verdict
 
     result, data = compare_paths(*args.compare)
     print(format_report(result))
     if args.json:
         atomic_write_json(args.json, data)
-    return 1 if result.first_diverging else 0
+    line = verdict(result, *args.compare)
+    if line:
+        print(line, file=sys.stderr)
+    return 1 if line else 0

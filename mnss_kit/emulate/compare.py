@@ -17,6 +17,11 @@ For every tensor both dumps hold, over every frame both hold:
 Tensors are reported in the first dump's execution order; the *first diverging tensor* is the
 earliest one in that order, in the earliest frame with any difference.  Recurrent state carries
 a divergence into later frames, so the frame matters as much as the tensor.
+
+A tensor both dumps hold (in their index or in any compared frame) but one frame of one dump
+lacks is a difference too (``missing``): a damaged or incomplete dump must not compare clean.
+A tensor only one dump ever holds is listed (``only_in_a`` / ``only_in_b``) and is no
+difference: a device dump holds only what the device can read back.
 """
 
 from __future__ import annotations
@@ -71,6 +76,10 @@ class Comparison:
     first_diverging: dict | None
     only_in_a: list[str] = field(default_factory=list)
     only_in_b: list[str] = field(default_factory=list)
+    missing: list[dict] = field(default_factory=list)  # {"tensor", "frame", "missing_from": "a" | "b"}, frame order
+
+    def differs(self) -> bool:
+        return self.first_diverging is not None or bool(self.missing)
 
     def as_json(self, a: str = "", b: str = "") -> dict:
         return json_safe({
@@ -82,6 +91,7 @@ class Comparison:
             "tensors": {name: self.stats[name].as_json() for name in self.order},
             "only_in_a": self.only_in_a,
             "only_in_b": self.only_in_b,
+            "missing": self.missing,
         })
 
 
@@ -150,11 +160,13 @@ def compare_dumps(a: Dump, b: Dump) -> Comparison:
     stats: dict[str, TensorStats] = {}
     names_a: list[str] = []
     names_b: set[str] = set()
+    gaps: list[tuple[int, str, str]] = []  # (frame, tensor, the dump whose frame lacks it)
     first = None
     for f in frames:
         fa, fb = a.frame(f), b.frame(f)
         names_a = merge_order(names_a, _ordered(a, fa))
         names_b.update(fb)
+        gaps += [(f, n, "b") for n in _ordered(a, fa) if n not in fb] + [(f, n, "a") for n in fb if n not in fa]
         for name in _ordered(a, fa):
             if name not in fb:
                 continue
@@ -165,9 +177,11 @@ def compare_dumps(a: Dump, b: Dump) -> Comparison:
             if accumulate(stats[name], f, xa, ea, xb, eb) and first is None:
                 first = {"tensor": name, "frame": f}
     order.sort(key=lambda n: names_a.index(n))
-    only_a = [n for n in names_a if n not in names_b]
-    only_b = sorted(n for n in names_b if n not in names_a)
-    return Comparison(order, stats, frames, first, only_a, only_b)
+    held_a, held_b = set(names_a) | set(a.tensors), names_b | set(b.tensors)
+    missing = [{"tensor": n, "frame": f, "missing_from": side} for f, n, side in gaps if n in held_a and n in held_b]
+    only_a = [n for n in names_a if n not in held_b]
+    only_b = sorted(n for n in names_b if n not in held_a)
+    return Comparison(order, stats, frames, first, only_a, only_b, missing)
 
 
 def _ordered(dump: Dump, frame: dict) -> list[str]:
@@ -190,12 +204,28 @@ def format_report(result: Comparison) -> str:
         lines.append(f"{mark}{name:<{width}}  {lsb:>9}  {100 * s['mismatch_fraction']:>8.4f}%  {s['psnr']:>8.2f}  {ff}")
     if result.first_diverging:
         lines.append(f"first diverging tensor: '{first}' in frame {result.first_diverging['frame']}")
-    else:
+    for gap in result.missing:
+        lines.append(f"tensor '{gap['tensor']}' is missing from frame {gap['frame']} of the {_DUMP_LABEL[gap['missing_from']]} dump")
+    if not result.differs():
         lines.append("no differences")
     for label, names in (("only in the first dump", result.only_in_a), ("only in the second dump", result.only_in_b)):
         if names:
             lines.append(f"{label}: {', '.join(names)}")
     return "\n".join(lines)
+
+
+_DUMP_LABEL = {"a": "first", "b": "second"}
+
+
+def verdict(result: Comparison, a: str | Path, b: str | Path) -> str | None:
+    """One line on the earliest difference, naming the tensor and frame (None when the dumps agree)."""
+    gap = result.missing[0] if result.missing else None
+    diverging = result.first_diverging
+    if diverging and (gap is None or diverging["frame"] <= gap["frame"]):
+        return f"{a} and {b} differ: first diverging tensor '{diverging['tensor']}' in frame {diverging['frame']}"
+    if gap:
+        return f"{a} and {b} differ: tensor '{gap['tensor']}' is missing from frame {gap['frame']} of {a if gap['missing_from'] == 'a' else b}"
+    return None
 
 
 def compare_paths(a: str | Path, b: str | Path) -> tuple[Comparison, dict]:

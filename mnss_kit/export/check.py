@@ -4,8 +4,8 @@ Order: the manifest (format, version gate, schema), then every listed file (pres
 SHA-256; no unlisted files), then the NPU files (tensor names, shapes and quantization of the
 manifest against ``npu.tflite``, and ``npu.tflite`` against ``npu_qdq.onnx``), the boundary
 tensors (against the NPU tensors, remaps recomputed), the GPU weight blocks and the golden
-arrays (inside their files, sizes matching shape and dtype), and the schedule (every pass,
-resource and weight block it names exists).  Each problem is one line naming the file or tensor.
+arrays (inside their files, sizes matching shape and dtype, float values finite), and the
+schedule (every pass, resource and weight block it names exists).  Each problem is one line naming the file or tensor.
 """
 
 from __future__ import annotations
@@ -16,8 +16,9 @@ import numpy as np
 
 from ..errors import UserError
 from .boundary import texture_remaps
+from ..fileio import sha256_file
 from ..gpu.plan import WEIGHTS_PREFIX
-from .manifest import bundle_files, read_manifest, schema_problems, sha256_bytes, sha256_file
+from .manifest import bundle_files, read_manifest, schema_problems, sha256_bytes
 from .npu_files import NpuModel, nchw_to_nhwc, read_onnx, read_tflite
 
 DTYPE_SIZES = {"int8": 1, "uint8": 1, "int16": 2, "float16": 2, "float32": 4, "int32": 4}
@@ -76,7 +77,7 @@ def check_npu(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
     except UserError as e:
         return [str(e)]
     problems = _manifest_vs_tflite(npu, tflite, tflite_name)
-    problems += _tflite_vs_onnx(tflite, onnx, tflite_name, onnx_name)
+    problems += tflite_vs_onnx(tflite, onnx, tflite_name, onnx_name)
     return problems
 
 
@@ -105,7 +106,7 @@ def _manifest_vs_tflite(npu: dict, tflite: NpuModel, name: str) -> list[str]:
     return problems
 
 
-def _tflite_vs_onnx(tflite: NpuModel, onnx: NpuModel, tflite_name: str, onnx_name: str) -> list[str]:
+def tflite_vs_onnx(tflite: NpuModel, onnx: NpuModel, tflite_name: str, onnx_name: str) -> list[str]:
     problems = []
     for role in ("inputs", "outputs"):
         if getattr(tflite, role) != getattr(onnx, role):
@@ -175,7 +176,18 @@ def check_weights(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
             problems.append(f"{where}: offset {block['offset']} is not a multiple of {weights['alignment']}")
         if sha256_bytes(data[block["offset"]:end]) != block["sha256"]:
             problems.append(f"{where}: SHA-256 differs from manifest.json")
+            continue
+        problems += _non_finite(data[block["offset"]:end], weights["dtype"], where)
     return problems
+
+
+def _non_finite(raw: bytes, dtype: str, where: str) -> list[str]:
+    """A problem line if the little-endian float values in ``raw`` hold NaN or Inf (none for integers)."""
+    kind = np.dtype(dtype).newbyteorder("<")
+    if kind.kind != "f" or len(raw) % kind.itemsize:
+        return []
+    bad = int(np.count_nonzero(~np.isfinite(np.frombuffer(raw, dtype=kind))))
+    return [f"{where}: {bad} NaN or Inf value{'s' if bad != 1 else ''}"] if bad else []
 
 
 def check_golden(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
@@ -196,6 +208,8 @@ def check_golden(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
             expected = int(np.prod(array["shape"])) * DTYPE_SIZES[array["dtype"]]
             if listed[name]["bytes"] != expected:
                 problems.append(f"{name}: {listed[name]['bytes']} bytes, shape {array['shape']} of {array['dtype']} needs {expected}")
+                continue
+            problems += _non_finite((root / name).read_bytes(), array["dtype"], f"{name}: golden '{key}' of frame {frame['index']}")
     return problems
 
 

@@ -19,7 +19,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="checkpoint path or shipped name (quantized here), or a directory written by `mnss-kit quantize`")
     parser.add_argument("--out", required=True, metavar="BUNDLE", help="bundle directory to write")
     parser.add_argument("--checkpoint", metavar="CKPT",
-                        help="with a quantize directory: the checkpoint it was quantized from (GPU weights and config)")
+                        help="with a quantize directory: the checkpoint it was quantized from (GPU weights and config; its SHA-256 "
+                             "must match the one report.json records; default: the path recorded there)")
     parser.add_argument("--resolution", metavar="WxH",
                         help=f"output (HR) size the bundle runs at (default {DEFAULT_RESOLUTION}; a quantize directory fixes it)")
     parser.add_argument("--device", metavar="NAME", help="device profile (configs/devices): records the GPU/NPU placement and estimates")

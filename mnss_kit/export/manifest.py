@@ -16,26 +16,16 @@ import json
 from pathlib import Path
 
 from ..errors import UserError
-from ..fileio import check_format, read_json
+from ..fileio import check_format, read_json, sha256_file
 
 FORMAT = "mnss-kit-bundle"
 FORMAT_VERSION = 1
 MANIFEST_NAME = "manifest.json"
 SCHEMA_PATH = Path(__file__).resolve().parent.parent / "schemas" / "manifest.schema.json"
-HASH_CHUNK = 1 << 20
 
 
 class NewerFormatError(UserError):
     """The bundle was written by a newer mnss-kit whose format this one cannot read."""
-
-
-def sha256_file(path: Path) -> str:
-    """Hex SHA-256 of a file, read in chunks."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(HASH_CHUNK), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
 
 
 def sha256_bytes(data: bytes) -> str:

@@ -22,7 +22,7 @@ from ..model.families import npu_module
 from ..fileio import read_json
 
 log = logging.getLogger(__name__)
-QUANTIZED_FILES = ("npu.tflite", "npu_qdq.onnx")
+QUANTIZED_DIR_FILES = ("npu.tflite", "npu_qdq.onnx", "encodings.json", "report.json")  # what mnss-kit quantize writes, report.md aside
 CALIBRATION_SAMPLES = 24  # the quantize command's default
 
 
@@ -120,13 +120,29 @@ def render_calibration_data(root: Path, progress: bool) -> Path:
 
 
 def load_quantized_dir(directory: Path) -> tuple[NpuArtifacts, dict]:
-    """The files of an ``mnss-kit quantize`` output directory, and its ``report.json`` (``{}`` if absent)."""
-    missing = [n for n in QUANTIZED_FILES if not (directory / n).is_file()]
+    """The files of an ``mnss-kit quantize`` output directory, and its ``report.json``.
+
+    Every file the directory must hold is read and parsed here, so a missing, corrupt or foreign
+    one is refused with its name before any work: both NPU files, ``encodings.json``, and a
+    ``report.json`` that records the checkpoint's SHA-256.
+    """
+    from .check import tflite_vs_onnx
+    from .npu_files import read_onnx, read_tflite
+
+    missing = [n for n in QUANTIZED_DIR_FILES if not (directory / n).is_file()]
     if missing:
-        raise UserError(f"{directory}: not an mnss-kit quantize directory (missing {', '.join(missing)})")
-    report = {}
-    if (directory / "report.json").is_file():
-        report = read_json(directory / "report.json")
+        raise UserError(f"{directory}: not a complete mnss-kit quantize directory (missing {', '.join(missing)})")
+    report = _read_json_object(directory / "report.json")
+    _read_json_object(directory / "encodings.json")
+    if not isinstance(report.get("checkpoint"), dict) or not report["checkpoint"].get("sha256"):
+        raise UserError(f"{directory / 'report.json'}: no 'checkpoint.sha256' (written by an older mnss-kit); "
+                        "run mnss-kit quantize again")
+    tflite_bytes, onnx_bytes = (directory / "npu.tflite").read_bytes(), (directory / "npu_qdq.onnx").read_bytes()
+    tflite = read_tflite(tflite_bytes, str(directory / "npu.tflite"))
+    onnx = read_onnx(onnx_bytes, str(directory / "npu_qdq.onnx"))
+    problems = tflite_vs_onnx(tflite, onnx, "npu.tflite", "npu_qdq.onnx")
+    if problems:
+        raise UserError(str(directory / problems[0]))  # the line starts with the file's name
     quantization = {
         "source": "directory",
         "directory": str(directory),
@@ -135,8 +151,14 @@ def load_quantized_dir(directory: Path) -> tuple[NpuArtifacts, dict]:
         "calibration_data": report.get("data"),
         **report_summary(report),
     }
-    art = NpuArtifacts((directory / "npu.tflite").read_bytes(), (directory / "npu_qdq.onnx").read_bytes(), quantization)
-    return art, report
+    return NpuArtifacts(tflite_bytes, onnx_bytes, quantization), report
+
+
+def _read_json_object(path: Path) -> dict:
+    data = read_json(path)
+    if not isinstance(data, dict):
+        raise UserError(f"{path}: not a JSON object")
+    return data
 
 
 def report_summary(report: dict) -> dict:

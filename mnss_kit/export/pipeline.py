@@ -54,7 +54,8 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
     clock = _Clock(timings)
     ckpt, npu, report = _sources(request)
     model, record = checkpoint.load(ckpt)
-    _check_same_model(report, record, ckpt)
+    if npu is not None:
+        _check_same_model(report, ckpt, request.model)
     hr_size = _bundle_size(request, npu, model.scale)
     lr_size = (hr_size[0] // model.scale, hr_size[1] // model.scale)
     placement = _placement(model, request, hr_size, Path(ckpt).stem)
@@ -150,13 +151,22 @@ def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int) -
     return size
 
 
-def _check_same_model(report: dict, record: dict, ckpt: str) -> None:
-    """A quantize directory's report names the family and scale it was made from; the checkpoint must agree."""
-    made_from = report.get("checkpoint") or {}
-    for key in ("family", "scale"):
-        if made_from.get(key) is not None and made_from.get(key) != record.get(key):
-            raise UserError(f"the quantize directory was made from a {key} {made_from.get(key)!r} model, "
-                            f"but {ckpt} is {record.get(key)!r}")
+def _check_same_model(report: dict, ckpt: str, directory: str) -> None:
+    """The NPU files of a quantize directory hold the weights of the checkpoint they were quantized
+    from; a bundle pairing them with another one would run two different models."""
+    from ..fileio import sha256_file
+    from ..model import checkpoint
+
+    made_from = report["checkpoint"]  # load_quantized_dir checked it records a SHA-256
+    given = sha256_file(checkpoint.resolve(ckpt))
+    if given == made_from["sha256"]:
+        return
+    then, now = made_from["sha256"][:12], given[:12]
+    if str(made_from.get("path")) == str(ckpt):
+        raise UserError(f"{ckpt} changed since {directory} was quantized from it (SHA-256 {then}... then, {now}... now); "
+                        "quantize it again")
+    raise UserError(f"{directory} was quantized from {made_from.get('path')} (SHA-256 {then}...), not from {ckpt} "
+                    f"(SHA-256 {now}...); give --checkpoint the file it came from")
 
 
 def _check_npu_io(tflite) -> None:
@@ -208,7 +218,7 @@ def placement_of(name: str, model_placement: str, placement: dict | None) -> str
 
 def model_section(ckpt: str, record: dict) -> dict:
     from ..model import checkpoint
-    from .manifest import sha256_file
+    from ..fileio import sha256_file
 
     path = checkpoint.resolve(ckpt)
     return {

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from ..errors import UserError
 from ..fileio import atomic_directory, json_text
 from ..gpu.glsl import flatten
 from ..gpu.plan import WEIGHT_ALIGNMENT, WEIGHTS_FILE, pack_weights
@@ -52,9 +53,19 @@ def write_bundle(out: str | Path, parts: BundleParts, overwrite: bool = False) -
     with atomic_directory(out, overwrite=overwrite) as staging:
         manifest = stage_bundle(staging, parts)
         problems = check_bundle(staging)
-        if problems:  # the writer produced something its own checker rejects: a bug, not a user mistake
-            raise RuntimeError("exported bundle fails its check:\n" + "\n".join(problems))
+        if problems:
+            raise _check_failure(problems, parts.npu)
     return manifest
+
+
+def _check_failure(problems: list[str], npu: NpuArtifacts) -> Exception:
+    """A UserError for a problem in NPU files copied unchanged from a quantize directory (the
+    user's input); anything else is the writer producing what its own checker rejects: a bug."""
+    directory = npu.quantization.get("directory")
+    for line in problems:
+        if directory and line.split()[0].rstrip(":") in (TFLITE_NAME, ONNX_NAME):  # lines start with the file's name
+            return UserError(f"{Path(directory) / line}")
+    return RuntimeError("exported bundle fails its check:\n" + "\n".join(problems))
 
 
 def stage_bundle(root: Path, parts: BundleParts) -> dict:

@@ -21,7 +21,7 @@ from torch import nn
 from .. import __version__
 from ..config import to_dict
 from ..errors import UserError
-from ..fileio import atomic_output_path
+from ..fileio import atomic_output_path, sha256_file
 from .config import model_config_from_dict
 from .families import build_model
 from .macs import count_macs
@@ -116,6 +116,7 @@ def read_record(path_or_name: str | Path) -> tuple[dict, dict]:
 def load(path_or_name: str | Path) -> tuple[nn.Module, dict]:
     """``(model in eval mode, record)`` from a checkpoint path or a shipped name."""
     record, state_dict = read_record(path_or_name)
+    _check_finite(state_dict, path_or_name)
     config = model_config_from_dict(record.get("config"), source=f"{path_or_name} record")
     model = build_model(config)
     try:
@@ -124,6 +125,30 @@ def load(path_or_name: str | Path) -> tuple[nn.Module, dict]:
         first = str(e).strip().splitlines()[-1].strip()
         raise UserError(f"{path_or_name}: weights do not match the recorded config ({first})") from None
     return model.eval(), record
+
+
+def identity(path_or_name: str | Path, record: dict) -> dict:
+    """What a derived artefact records about the checkpoint it came from: path, SHA-256 of the file,
+    family, scale, config and code version (plain data)."""
+    return {
+        "path": str(path_or_name),
+        "sha256": sha256_file(resolve(path_or_name)),
+        "family": record.get("family"),
+        "scale": record.get("scale"),
+        "config": record.get("config"),
+        "code_version": record.get("code_version"),
+    }
+
+
+def _check_finite(state_dict: dict, source) -> None:
+    """A NaN or Inf weight spreads through every frame it touches (and through the recurrent
+    history into all later ones): refuse it, naming the first such tensor."""
+    for name, tensor in state_dict.items():
+        if torch.is_tensor(tensor) and torch.is_floating_point(tensor):
+            bad = int((~torch.isfinite(tensor)).sum())
+            if bad:
+                raise UserError(f"{source}: weight '{name}' holds {bad} NaN or Inf value{'s' if bad != 1 else ''} "
+                                f"of {tensor.numel()}")
 
 
 def _check_plain(value, where: str) -> None:

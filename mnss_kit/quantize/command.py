@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..errors import UserError
     from ..fileio import atomic_directory
-    from ..model.checkpoint import load
+    from ..model.checkpoint import identity, load
     from ..model.families import npu_module
     from .artifacts import comparison_table, summary_table
     from .stage import QuantizeOptions, quantize_module, write_artifacts
@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
         options = QuantizeOptions(method=args.method, int16=args.a16, qat_steps=args.qat)
         art = quantize_module(npu_module(model), samples, options, name=name)
         art.report["data"] = str(args.data) if args.data else f"rendered configs/data/{DEFAULT_DATA_CONFIG}.yaml"
-        art.report["checkpoint"] = {"path": str(args.model), "family": record.get("family"), "scale": record.get("scale"), "code_version": record.get("code_version")}
+        art.report["checkpoint"] = identity(args.model, record)  # export checks it is given this very file
         if args.pipeline_frames:
             eval_dir = Path(args.eval_data) if args.eval_data else data
             label = str(eval_dir) if args.eval_data or args.data else art.report["data"]

@@ -161,3 +161,23 @@ def test_shape_mismatch_and_no_common_frame(tmp_path):
     writer.write_frame(7, arrays, entries)
     with pytest.raises(UserError, match="share no frame"):
         compare_paths(tmp_path / "a", tmp_path / "c")
+
+
+def test_a_tensor_one_frame_lacks_is_a_difference(tmp_path):
+    """Both dumps hold 'conv', frame 1 of the second does not: a difference, named with its frame."""
+    a = frames()
+    b = [(dict(arrays), entries) for arrays, entries in a]
+    del b[1][0]["conv"]
+    result, report = compare_paths(write(tmp_path / "a", a), write(tmp_path / "b", b))
+    assert result.first_diverging is None and result.differs()
+    assert report["missing"] == [{"tensor": "conv", "frame": 1, "missing_from": "b"}]
+    assert report["only_in_a"] == [] and "tensor 'conv' is missing from frame 1 of the second dump" in format_report(result)
+    assert "no differences" not in format_report(result)
+
+
+def test_a_tensor_only_one_dump_holds_is_no_difference(tmp_path):
+    """A device dump holds what the device reads back: a tensor it never has is listed, not a difference."""
+    a = frames()
+    b = [({k: v for k, v in arrays.items() if k != "conv"}, entries) for arrays, entries in a]
+    result, report = compare_paths(write(tmp_path / "a", a), write(tmp_path / "b", b))
+    assert not result.differs() and report["only_in_a"] == ["conv"] and report["missing"] == []

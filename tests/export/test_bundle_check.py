@@ -14,7 +14,8 @@ from onnx import numpy_helper
 from mnss_kit.cli import main
 from mnss_kit.errors import UserError
 from mnss_kit.export.check import check_bundle
-from mnss_kit.export.manifest import FORMAT_VERSION, NewerFormatError, load_schema, sha256_file
+from mnss_kit.export.manifest import FORMAT_VERSION, NewerFormatError, load_schema
+from mnss_kit.fileio import sha256_file
 
 
 def edit_manifest(bundle: Path, change) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -116,3 +117,17 @@ def test_a_run_directory_named_like_a_shipped_model_does_not_hide_it(tmp_path, m
     (tmp_path / "mnss_x2" / "npu.tflite").write_bytes(b"")
     with pytest.raises(UserError, match="quantize directory"):
         _sources(ExportRequest(model="mnss_x2", out=tmp_path / "b"))
+
+
+def test_a_check_problem_in_the_users_npu_files_is_a_user_error():
+    """What fails the bundle check in NPU files copied from a quantize directory names that file;
+    any other failure is the writer's own (a bug, with its traceback)."""
+    from mnss_kit.export.npu_stage import NpuArtifacts
+    from mnss_kit.export.writer import _check_failure
+
+    copied = NpuArtifacts(b"", b"", {"source": "directory", "directory": "q"})
+    error = _check_failure(["manifest.json: schedule step 3: bad", "npu_qdq.onnx is corrupt (DecodeError)"], copied)
+    assert isinstance(error, UserError) and str(error) == str(Path("q") / "npu_qdq.onnx is corrupt (DecodeError)")
+    assert isinstance(_check_failure(["manifest.json: schedule step 3: bad"], copied), RuntimeError)
+    quantized_here = NpuArtifacts(b"", b"", {"source": "checkpoint"})
+    assert isinstance(_check_failure(["npu.tflite: tensor 'x': not in the file"], quantized_here), RuntimeError)

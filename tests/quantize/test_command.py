@@ -10,6 +10,7 @@ import torch
 from mnss_kit import cli
 from mnss_kit.dataset import format as fmt
 from mnss_kit.dataset.synthetic import write_synthetic_sequence
+from mnss_kit.fileio import sha256_file
 from mnss_kit.model import checkpoint
 from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model, randomise_convs
@@ -41,6 +42,8 @@ def test_end_to_end(tiny_checkpoint, synthetic_dataset, tmp_path, capsys):
     assert sorted(p.name for p in out.iterdir()) == ["encodings.json", "npu.tflite", "npu_qdq.onnx", "report.json", "report.md"]
     report = json.loads((out / "report.json").read_text())
     assert report["samples"] == 6 and report["method"] == "mse" and len(report["int16"]) == 1
+    made_from = report["checkpoint"]
+    assert made_from["sha256"] == sha256_file(tiny_checkpoint) and made_from["config"]["recon_width"] == TINY["recon_width"]
     assert report["agreement"]["per_op_max_lsb"] <= 1
     for kind in ("fp32", "int8", "delta"):
         assert set(report[kind]) == {"psnr", "ssim", "if_ssim"}
