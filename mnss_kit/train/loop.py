@@ -81,7 +81,9 @@ def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: 
     log.info("training %d steps of %d x %d windows (%d+%d frames, %d px crops), %d process(es) x %d thread(s)",
              cfg.steps, world.size, cfg.batch_size, cfg.burn_in, cfg.window, cfg.crop, world.size, threads)
 
-    summaries = Summaries((Path(cfg.log_dir) if cfg.log_dir else out_dir / "logs") if world.is_main else None, run.step)
+    log_dir = Path(cfg.log_dir) if cfg.log_dir else out_dir / "logs"
+    # only the run directory's own logs/ is cleared: a train.log_dir may hold other runs' events
+    summaries = Summaries(log_dir if world.is_main else None, run.step, fresh=not resume and not cfg.log_dir)
     chunk = WindowChunk(model, MNSSLoss(experiment.model.scale, cfg.perceptual_weight, cfg.aa_weight, cfg.flicker_weight))
     runner = nn.parallel.DistributedDataParallel(chunk) if world.distributed else chunk
     try:
