@@ -60,13 +60,13 @@ def _require_writable(target: Path, where: Path) -> None:
         ancestor = ancestor.parent
     if not ancestor.is_dir():
         raise UserError(f"cannot write {target}: {ancestor} is a file, not a directory")
-    if not os.access(ancestor, os.W_OK | os.X_OK):
-        raise UserError(f"cannot write {target}: {ancestor} is not writable")
-    try:  # os.access trusts permission bits; a read-only mount or a full disk only shows on a real write
+    try:  # a real write: permission bits alone miss a read-only mount, and root ignores them
         with tempfile.TemporaryFile(dir=ancestor, prefix=".mnss-write-test."):
             pass
     except OSError as e:
         raise UserError(f"cannot write {target}: {ancestor} is not writable ({e.strerror})") from None
+    if not os.access(ancestor, os.W_OK | os.X_OK):  # e.g. a directory other users may not write
+        raise UserError(f"cannot write {target}: {ancestor} is not writable (permission denied)")
 
 
 def _write_error(path: Path, e: OSError) -> UserError:

@@ -44,6 +44,11 @@ def run(args: argparse.Namespace) -> int:
 
     from ..errors import UserError
     from ..fileio import atomic_directory, check_output
+
+    name = Path(args.model).stem
+    out = Path(args.out) if args.out else Path(f"{name}-int8")
+    check_output(out, "directory")  # before the imports too: they take seconds
+
     from ..model.checkpoint import load
     from .artifacts import comparison_table, summary_table
     from .stage import QuantizeOptions, quantize_module, write_artifacts
@@ -55,9 +60,6 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--a16, --qat and --pipeline-frames take a count >= 0")
     if args.eval_data and not args.pipeline_frames:
         raise UserError("--eval-data is for the fp32-vs-int8 comparison, which --pipeline-frames 0 skips")
-    name = Path(args.model).stem
-    out = Path(args.out) if args.out else Path(f"{name}-int8")
-    check_output(out, "directory")
     if out.exists() and any(out.iterdir()) and not args.overwrite:
         raise UserError(f"output directory {out} exists and is not empty (use --overwrite)")
     model, record = load(args.model)

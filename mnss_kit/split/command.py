@@ -27,12 +27,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..fileio import atomic_write_json, check_output
-    from .device import load_device
-    from .plan import split_model
-    from .report import format_text
 
     if args.json:
         check_output(args.json, "file")
+
+    from .device import load_device
+    from .plan import split_model
+    from .report import format_text
     resolution = parse_resolution(args.resolution)
     device = load_device(args.device)
     model, name = load_model(args.model)
