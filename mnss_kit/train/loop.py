@@ -23,6 +23,7 @@ from torch import nn
 
 from ..config import to_dict
 from ..errors import UserError
+from ..fileio import remove_stale_leftovers
 from ..model.families import build_model
 from . import distributed
 from .config import ExperimentConfig, TrainConfig
@@ -235,6 +236,8 @@ def _open_data(cfg: TrainConfig, world, progress: bool):
 
 
 def _check_out_dir(out_dir: Path, resume: bool) -> None:
+    for name in (LAST, FINAL):  # a run killed while saving leaves a temporary checkpoint
+        remove_stale_leftovers(out_dir / name)
     if resume:
         if not (out_dir / LAST).is_file():
             raise UserError(f"nothing to resume: {out_dir / LAST} does not exist")

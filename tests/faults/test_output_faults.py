@@ -213,12 +213,14 @@ def live_run_leftover(out: Path) -> Path:
     return path
 
 
-LEFTOVER_CASES = {  # command -> (argv, output, writer, output kind)
+STOPPED = ("export", "emulate", "quantize")  # these reruns only have to start: stopped at their first real step
+LEFTOVER_CASES = {  # command -> (argv, output, how it was written)
     "export": (["export", "{ckpt}", "--out", "{out}", "--resolution", "64x48", "--data", "{data}"], "bundle", "directory"),
     "emulate": (["emulate", "{scratch}/bundle", "--data", "{data}", "--out", "{out}"], "emulated", "directory"),
     "quantize": (["quantize", "{ckpt}", "--data", "{data}", "--out", "{out}"], "int8", "directory"),
     "eval --crops": (["eval", "none", "--data", "{data}", "--crops", "{out}", "--max-frames", "3"], "crops", "merge"),
     "eval --json": (["eval", "none", "--data", "{data}", "--json", "{out}", "--max-frames", "3"], "eval.json", "file"),
+    "train": (["train", "{config}", "--out", "{scratch}/run"], "run/last.pt", "file"),
 }
 
 
@@ -229,7 +231,8 @@ def test_the_next_run_removes_a_killed_runs_leftovers(case, tmp_path, data, tiny
     out = scratch / name
     killed = killed_run_leftover(out, writer)
     running = live_run_leftover(out)
-    if case in ("export", "emulate", "quantize"):  # the rerun only has to start: stop it at its first real step
+    config = write_config(tmp_path / "tiny.yaml", data)
+    if case in STOPPED:
         from mnss_kit.errors import UserError
 
         def stop(*args, **kwargs):
@@ -238,8 +241,8 @@ def test_the_next_run_removes_a_killed_runs_leftovers(case, tmp_path, data, tiny
         monkeypatch.setattr("mnss_kit.model.checkpoint.load", stop)
         monkeypatch.setattr("mnss_kit.emulate.frame_loop.Emulator", stop)
     with caplog.at_level("INFO", logger="mnss_kit.fileio"):
-        code = main(fill(argv, out=out, data=data, ckpt=tiny_ckpt, scratch=scratch) + ["--no-progress"])
-    assert code == (0 if case.startswith("eval") else 2)
+        code = main(fill(argv, out=out, data=data, ckpt=tiny_ckpt, scratch=scratch, config=config) + ["--no-progress"])
+    assert code == (2 if case in STOPPED else 0)
     assert not killed.exists()
     assert running.exists()  # a concurrent run's staging is left alone
     (line,) = [r.getMessage() for r in caplog.records if "leftover" in r.getMessage()]
