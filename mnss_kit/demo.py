@@ -34,9 +34,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from .errors import UserError
 
+    from .fileio import check_output
+
     if args.minutes <= 0:
         raise UserError("--minutes must be positive")
-    out = Path(args.out)
+    out = check_output(args.out, "into")
     out.mkdir(parents=True, exist_ok=True)
     steps = Steps(out, progress=not args.no_progress)
     train_data, test_data = out / "data" / "train", out / "data" / "test"

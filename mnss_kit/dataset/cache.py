@@ -9,32 +9,32 @@ G-buffers as float16, depth and motion as float32.  ``key`` hashes meta.json
 and every frame file's name, size and modification time, so editing, adding or
 re-exporting a file gives a new key and the stale directory is removed on the
 next build.  Each ``.npy`` is written under a temporary name and renamed when
-complete: a killed build leaves no file that could be mistaken for a cache.
+complete: a killed build leaves no file that could be mistaken for a cache, and
+the next build removes its temporary file.  A file damaged later (truncated,
+a bad header, another shape) is found by :meth:`SequenceCache.damage` and rebuilt.
 """
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import logging
 import os
 import shutil
-import time
 from pathlib import Path
 from typing import Iterable
 
 import numpy as np
 
 from ..errors import UserError
-from ..fileio import atomic_output_path
+from ..fileio import atomic_output_path, remove_stale_leftovers
 from .format import BUFFERS, META_FILE, SequenceMeta, buffer_path, find_sequences, read_buffer, read_meta
 
 log = logging.getLogger(__name__)
 
 CACHE_VERSION = 1
 DEFAULT_CACHE_NAME = ".cache"
+NPY_HEADER_READERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
 FLOAT32_BUFFERS = ("depth", "motion")  # half float loses sub-pixel motion and far depth precision
-STALE_TEMP_SECONDS = 3600  # a temporary file this old belongs to a build that was killed
 
 
 def cache_dtype(buffer: str) -> np.dtype:
@@ -106,7 +106,36 @@ class SequenceCache:
         return self.dir / f"{res}_{buffer}.npy"
 
     def missing(self, buffers: Iterable[tuple[str, str]]) -> list[tuple[str, str]]:
-        return [(r, b) for r, b in buffers if not self.path(r, b).is_file()]
+        """The buffers to (re)build: absent, or damaged (said in one log line each)."""
+        todo = []
+        for r, b in buffers:
+            if not self.path(r, b).is_file():
+                todo.append((r, b))
+            elif problem := self.damage(r, b):
+                log.warning("cache file %s is damaged (%s); rebuilding it", self.path(r, b), problem)
+                todo.append((r, b))
+        return todo
+
+    def damage(self, res: str, buffer: str) -> str | None:
+        """What is wrong with an existing cache file (header, shape, dtype, size), or None."""
+        path = self.path(res, buffer)
+        try:
+            with open(path, "rb") as f:
+                version = np.lib.format.read_magic(f)
+                read_header = NPY_HEADER_READERS.get(version)
+                if read_header is None:
+                    return f"unknown .npy format version {version}"
+                shape, fortran, dtype = read_header(f)
+                offset = f.tell()
+            size = path.stat().st_size
+        except (OSError, ValueError, SyntaxError) as e:
+            return f"unreadable header: {e}"
+        if fortran or tuple(shape) != self.shape(res, buffer) or dtype != cache_dtype(buffer):
+            return f"holds {dtype} {tuple(shape)}, expected {cache_dtype(buffer)} {self.shape(res, buffer)}"
+        expected = offset + int(np.prod(shape)) * dtype.itemsize
+        if size != expected:
+            return f"{size} bytes, expected {expected}"
+        return None
 
     def shape(self, res: str, buffer: str) -> tuple[int, int, int, int]:
         w, h = self.meta.lr_size if res == "lr" else self.meta.hr_size
@@ -122,8 +151,8 @@ class SequenceCache:
     def build(self, res: str, buffer: str, on_frame=None) -> Path:
         """Decode every frame of one buffer into ``path(res, buffer)``; NaN/Inf values are UserErrors."""
         self.dir.mkdir(parents=True, exist_ok=True)
-        self._remove_stale()
         target = self.path(res, buffer)
+        self._remove_stale(target)
         with atomic_output_path(target) as tmp:
             arr = np.lib.format.open_memmap(tmp, mode="w+", dtype=cache_dtype(buffer), shape=self.shape(res, buffer))
             for t, frame in enumerate(self.meta.frames):
@@ -136,16 +165,12 @@ class SequenceCache:
             del arr
         return target
 
-    def _remove_stale(self) -> None:
-        """Drop directories of older keys and temporary files left by killed builds."""
+    def _remove_stale(self, target: Path) -> None:
+        """Drop directories of older keys and the temporary files killed builds left of ``target``."""
         for other in self.entry_dir.iterdir():
             if other.is_dir() and other.name != self.key:
                 shutil.rmtree(other, ignore_errors=True)
-        now = time.time()
-        for tmp in self.dir.glob(".*"):
-            with contextlib.suppress(OSError):
-                if now - tmp.stat().st_mtime > STALE_TEMP_SECONDS:
-                    tmp.unlink()
+        remove_stale_leftovers(target)
 
 
 def require_finite(image: np.ndarray, path: Path) -> None:

@@ -73,11 +73,13 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_cache(args: argparse.Namespace) -> int:
+    from ..fileio import check_output
     from .cache import default_cache_dir, prepare_caches
     from .format import BUFFERS, find_sequences, read_meta
 
     seqs = find_sequences(args.dir)
     cache_root = args.cache_dir or default_cache_dir(args.dir)
+    check_output(cache_root, "into")
     total = 0
     for seq in seqs:
         meta = read_meta(seq)

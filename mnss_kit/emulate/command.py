@@ -34,7 +34,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import UserError
+    from ..fileio import check_output
 
+    for path, kind in ((args.out, "directory"), (args.json, "file")):
+        if path:
+            check_output(path, kind)
     if args.compare:
         if args.bundle or args.data or args.out:
             raise UserError("--compare takes two dump directories and no bundle, --data or --out")

@@ -35,12 +35,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..fileio import check_output
+
+    for path, kind in ((args.json, "file"), (args.csv, "file"), (args.crops, "directory")):
+        if path:
+            check_output(path, kind)
+
     from ..dataset import format as fmt
     from ..errors import UserError
     from .methods import default_methods
     from .report import format_table, write_csv, write_json
     from .run import evaluate
-
     model, info = _load_model(args.model, args.data)
     scale = info["scale"] if info else fmt.read_meta(fmt.find_sequences(args.data)[0]).scale
     available = default_methods(model, scale)

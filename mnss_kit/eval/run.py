@@ -10,9 +10,10 @@ per-frame numbers are paired and ratios between methods come from one run.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ import torch
 
 from ..dataset import format as fmt
 from ..errors import UserError
+from ..fileio import atomic_directory
 from ..metrics.image import WINDOW_SIZE, ssim_image, to_image
 from ..metrics.psnr import psnr
 from ..metrics.temporal import DEPTH_TOLERANCE, POOL, SHADING_FLOOR, SHADING_WEBER, if_ssim, temporal_masks, temporal_scores
@@ -85,9 +87,12 @@ def evaluate(
 
     rows: list[dict] = []
     sequences: dict[str, dict] = {}
-    with tqdm(total=total, desc="eval", unit="frame", file=sys.stderr, disable=not progress) as bar:
+    # crops are staged and moved into crops_dir at the end: a failed or killed run adds none
+    crops = atomic_directory(opts.crops_dir, merge=True) if opts.crops_dir else contextlib.nullcontext()
+    with crops as staging, tqdm(total=total, desc="eval", unit="frame", file=sys.stderr, disable=not progress) as bar:
+        staged = replace(opts, crops_dir=staging)
         for seq_dir, meta in zip(seq_dirs, metas):
-            seq_rows, info = _run_sequence(seq_dir, meta, methods, opts, bar)
+            seq_rows, info = _run_sequence(seq_dir, meta, methods, staged, bar)
             rows.extend(seq_rows)
             sequences[seq_dir.name] = info
     result = summarize(rows, sequences, list(methods))

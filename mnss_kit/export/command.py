@@ -37,8 +37,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..fileio import check_output
     from .pipeline import ExportRequest, export
 
+    check_output(args.out, "directory")
     request = ExportRequest(
         model=args.model,
         out=Path(args.out),

@@ -132,7 +132,7 @@ class _Clock:
 
 
 def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int) -> tuple[int, int]:
-    from ..split.command import parse_resolution
+    from ..split.command import parse_resolution, require_scale_multiple
     from .npu_files import read_tflite
 
     if npu is not None:
@@ -146,8 +146,7 @@ def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int) -
         from ..split.plan import DEFAULT_RESOLUTION
 
         size = parse_resolution(request.resolution) if request.resolution else DEFAULT_RESOLUTION
-    if size[0] % scale or size[1] % scale:
-        raise UserError(f"output size {size[0]}x{size[1]} is not a multiple of the model's scale {scale}")
+    require_scale_multiple(size, scale)
     return size
 
 

@@ -43,7 +43,12 @@ def run(args: argparse.Namespace) -> int:
     import tempfile
 
     from ..errors import UserError
-    from ..fileio import atomic_directory
+    from ..fileio import atomic_directory, check_output
+
+    name = Path(args.model).stem
+    out = Path(args.out) if args.out else Path(f"{name}-int8")
+    check_output(out, "directory")  # before the imports too: they take seconds
+
     from ..model.checkpoint import identity, load
     from ..model.families import npu_module
     from .artifacts import comparison_table, summary_table
@@ -56,12 +61,10 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--a16, --qat and --pipeline-frames take a count >= 0")
     if args.eval_data and not args.pipeline_frames:
         raise UserError("--eval-data is for the fp32-vs-int8 comparison, which --pipeline-frames 0 skips")
-    model, record = load(args.model)
-    model.eval()
-    name = Path(args.model).stem
-    out = Path(args.out) if args.out else Path(f"{name}-int8")
     if out.exists() and any(out.iterdir()) and not args.overwrite:
         raise UserError(f"output directory {out} exists and is not empty (use --overwrite)")
+    model, record = load(args.model)
+    model.eval()
     progress = not args.no_progress
     with tempfile.TemporaryDirectory(prefix="mnss-quantize-") as tmp:
         if args.eval_data:  # fail before the slow part

@@ -20,9 +20,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..fileio import check_output
     from .config import load_render_config
     from .writer import parse_shard, render_dataset
 
+    check_output(args.out, "into")
     shard = parse_shard(args.shard)
     cfg = load_render_config(args.config, args.overrides)
     summary = render_dataset(cfg, args.out, shard=shard, overwrite=args.overwrite, progress=not args.no_progress)

@@ -27,14 +27,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..fileio import atomic_write_json
+    from ..fileio import atomic_write_json, check_output
+
+    if args.json:
+        check_output(args.json, "file")
+
     from .device import load_device
     from .plan import split_model
     from .report import format_text
-
     resolution = parse_resolution(args.resolution)
     device = load_device(args.device)
     model, name = load_model(args.model)
+    require_scale_multiple(resolution, model.scale)
     plan = split_model(model, device, args.placement, resolution, model_name=name)
     print(format_text(plan))
     if args.json:
@@ -53,6 +57,16 @@ def parse_resolution(text: str) -> tuple[int, int]:
     if w < 1 or h < 1:
         raise UserError(f"--resolution must be positive, got '{text}'")
     return w, h
+
+
+def require_scale_multiple(size: tuple[int, int], scale: int) -> None:
+    """The one rule for an output (HR) size, in every command that takes one: whole LR pixels."""
+    from ..errors import UserError
+
+    w, h = size
+    if w % scale or h % scale:
+        raise UserError(f"output size {w}x{h} is not a multiple of the model's scale {scale} "
+                        f"(e.g. {w // scale * scale or scale}x{h // scale * scale or scale})")
 
 
 def load_model(name_or_path: str):

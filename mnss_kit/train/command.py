@@ -20,11 +20,16 @@ def run(args: argparse.Namespace) -> int:
     import os
     from pathlib import Path
 
+    from ..fileio import check_output
     from .config import load_experiment
-    from .loop import train
 
     experiment, path = load_experiment(args.config, args.overrides)
     out = Path(args.out) if args.out else Path("runs") / path.stem
+    for where in (out, experiment.train.log_dir):
+        if where:
+            check_output(where, "into")
+    from .loop import train  # imports torch: after the checks
+
     final = train(experiment, out, resume=args.resume, progress=not args.no_progress)
     if os.environ.get("RANK", "0") == "0":  # one line from a torchrun world too
         print(final)

@@ -8,6 +8,7 @@ plain ``mnss-kit train`` is a world of one and touches none of this.
 from __future__ import annotations
 
 import hashlib
+import logging
 import os
 from dataclasses import dataclass
 
@@ -54,6 +55,12 @@ def cpu_threads(world: World, requested: int) -> int:
     for a descheduled sibling at every op barrier stall the whole step.
     """
     if requested > 0:
+        cores = os.cpu_count() or 1
+        if requested * world.local_size > cores:
+            logging.getLogger(__name__).warning(
+                "train.threads=%d x %d process(es) exceeds the %d CPU core(s) of this machine: threads will wait for "
+                "each other and training runs many times slower (0 picks a share of the idle cores)",
+                requested, world.local_size, cores)
         return requested
     try:
         cores = len(os.sched_getaffinity(0))

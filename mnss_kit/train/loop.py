@@ -23,6 +23,7 @@ from torch import nn
 
 from ..config import to_dict
 from ..errors import UserError
+from ..fileio import remove_stale_leftovers
 from ..model.families import build_model, family_of
 from . import distributed
 from .config import ExperimentConfig, TrainConfig
@@ -80,7 +81,9 @@ def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: 
     log.info("training %d steps of %d x %d windows (%d+%d frames, %d px crops), %d process(es) x %d thread(s)",
              cfg.steps, world.size, cfg.batch_size, cfg.burn_in, cfg.window, cfg.crop, world.size, threads)
 
-    summaries = Summaries((Path(cfg.log_dir) if cfg.log_dir else out_dir / "logs") if world.is_main else None, run.step)
+    log_dir = Path(cfg.log_dir) if cfg.log_dir else out_dir / "logs"
+    # only the run directory's own logs/ is cleared: a train.log_dir may hold other runs' events
+    summaries = Summaries(log_dir if world.is_main else None, run.step, fresh=not resume and not cfg.log_dir)
     chunk = WindowChunk(model, family_of(experiment.model).loss(experiment.model, cfg))
     runner = nn.parallel.DistributedDataParallel(chunk) if world.distributed else chunk
     try:
@@ -238,6 +241,8 @@ def _open_data(cfg: TrainConfig, world, progress: bool, hr_buffers: tuple[str, .
 
 
 def _check_out_dir(out_dir: Path, resume: bool) -> None:
+    for name in (LAST, FINAL):  # a run killed while saving leaves a temporary checkpoint
+        remove_stale_leftovers(out_dir / name)
     if resume:
         if not (out_dir / LAST).is_file():
             raise UserError(f"nothing to resume: {out_dir / LAST} does not exist")

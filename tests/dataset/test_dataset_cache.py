@@ -2,6 +2,8 @@
 
 import os
 import shutil
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -12,6 +14,7 @@ from mnss_kit.dataset.cache import SequenceCache, dataset_fingerprint, prepare_c
 from mnss_kit.dataset.format import read_buffer, read_meta, read_raw_buffer, write_buffer
 from mnss_kit.dataset.loader import WindowDataset
 from mnss_kit.errors import UserError
+from mnss_kit.fileio import LEGACY_STALE_SECONDS
 
 BUFFERS = [("lr", "color"), ("lr", "depth"), ("lr", "motion"), ("hr", "reference")]
 
@@ -86,14 +89,40 @@ def test_an_interrupted_build_leaves_no_cache_file(dataset, tmp_path, monkeypatc
     assert entry.missing(BUFFERS) == BUFFERS
     assert list(entry.dir.iterdir()) == []  # no half-written array under any name
 
-    # a build killed hard leaves its temporary file: never read, and removed once stale
-    leftover = entry.dir / ".lr_color.npy.killed.npy"
-    leftover.write_bytes(b"partial")
-    old = time.time() - 2 * cache_mod.STALE_TEMP_SECONDS
-    os.utime(leftover, (old, old))
+    # a build killed hard leaves its temporary file: never read, and removed by the next build
+    # once its process is gone (a named-by-pid file) or old (a file of an older release)
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    killed = entry.dir / f".lr_color.npy.tmp.{int(dead.stdout)}.abcd1234.npy"
+    running = entry.dir / f".lr_color.npy.tmp.{os.getpid()}.abcd1234.npy"
+    legacy = entry.dir / ".lr_color.npy.ab12cd34.npy"
+    for leftover in (killed, running, legacy):
+        leftover.write_bytes(b"partial")
+    old = time.time() - 2 * LEGACY_STALE_SECONDS
+    os.utime(legacy, (old, old))
     (built,) = prepare_caches([seq], BUFFERS, tmp_path / "cache", progress=False)
     assert built.open("lr", "color").shape == (8, 3, 24, 32)
-    assert not leftover.exists()
+    assert not killed.exists() and not legacy.exists()
+    assert running.exists()  # a concurrent build's file is left alone
+
+
+@pytest.mark.parametrize("damage", ["truncate", "header", "shape"])
+def test_a_damaged_cache_file_is_rebuilt(dataset, tmp_path, caplog, damage):
+    seq = dataset / "pan"
+    (first,) = prepare_caches([seq], BUFFERS, tmp_path / "cache", progress=False)
+    path = first.path("lr", "color")
+    good = path.read_bytes()
+    if damage == "truncate":
+        path.write_bytes(good[: len(good) // 2])
+    elif damage == "header":
+        path.write_bytes(b"not an npy file" + good[15:])
+    else:
+        np.save(path, np.zeros((8, 3, 12, 32), np.float16))
+    with caplog.at_level("WARNING", logger="mnss_kit.dataset.cache"):
+        (again,) = prepare_caches([seq], BUFFERS, tmp_path / "cache", progress=False)
+    assert path.read_bytes() == good
+    assert again.open("lr", "color").shape == (8, 3, 24, 32)
+    (line,) = [r.getMessage() for r in caplog.records if "damaged" in r.getMessage()]
+    assert str(path) in line and "rebuilding" in line
 
 
 def test_nan_pixels_stop_the_loader_with_one_line(dataset, tmp_path):
