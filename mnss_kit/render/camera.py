@@ -195,7 +195,7 @@ class CameraPath:
         return any(t_prev < c <= t for c in self.cut_times)
 
     def breaks_history(self, t_prev: float, t: float, aspect: float) -> bool:
-        """The frame at ``t`` is a ``reset``: a cut, or a turn out of the view of the frame at ``t_prev``."""
+        """The frame at ``t`` is a ``reset``: a cut, or a jump out of the view of the frame at ``t_prev``."""
         return self.is_cut(t_prev, t) or view_jumped(self.state(t_prev), self.state(t), aspect)
 
     @classmethod

@@ -3,9 +3,9 @@
 OBJ: ``v``, ``vt``, ``vn``, ``f`` (polygons split into fans from their first corner; negative
 indices count back from the last vertex read; corners may lack ``vt`` or ``vn``), ``usemtl`` and
 ``mtllib``.  Groups and smoothing groups are ignored.  Faces of fewer than 3 corners (Blender
-writes its loose edges as two-corner ``f`` lines), lines (``l``) and points (``p``) cannot be
-rendered as surfaces: they are skipped, counted in one warning per file, as other importers do.  Texture ``v`` is flipped
-(v_gltf = 1 - v_obj) because OBJ's v grows upwards.
+writes its loose edges as two-corner ``f`` lines), lines (``l``) and points (``p``) are no
+surfaces: they are skipped and counted in one warning per file, as other importers do.  Texture
+``v`` is flipped (v_gltf = 1 - v_obj) because OBJ's v grows upwards.
 
 MTL, each mapped onto ``Material``:
 - ``Kd``: linear base colour.  A ``map_Kd`` texture that loads replaces it (base colour becomes
