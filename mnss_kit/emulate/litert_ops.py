@@ -19,7 +19,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .profiles import get_kernel_set
+from ..ops.runtimes import get_runtime
 
 _TYPES = {"float32": 0, "int32": 2, "int8": 9}
 
@@ -140,14 +140,14 @@ def _tensor(schema, spec: TensorSpec, name: str, buffers: list) -> Any:
 
 
 class OneOpRunner:
-    """A LiteRT interpreter for a model under one kernel set (a ``profiles.KERNEL_SETS`` key)."""
+    """A LiteRT interpreter for a model under one runtime (an ``ops.runtimes.RUNTIMES`` key)."""
 
-    def __init__(self, model: bytes, kernel_set: str):
+    def __init__(self, model: bytes, runtime: str):
         from ai_edge_litert.interpreter import Interpreter, OpResolverType
 
-        resolver_name = get_kernel_set(kernel_set).resolver
+        resolver_name = get_runtime(runtime).litert_resolver
         if resolver_name is None:
-            raise ValueError(f"kernel set {kernel_set!r} is not a LiteRT kernel set")
+            raise ValueError(f"runtime {runtime!r} is not run by LiteRT")
         resolver = getattr(OpResolverType, resolver_name)
         self.interpreter = Interpreter(model_content=model, num_threads=1,
                                        experimental_op_resolver_type=resolver)
@@ -166,6 +166,6 @@ class OneOpRunner:
         return [interp.get_tensor(d["index"]) for d in interp.get_output_details()]
 
 
-def run_one_op(model: bytes, kernel_set: str, *inputs: np.ndarray) -> np.ndarray:
+def run_one_op(model: bytes, runtime: str, *inputs: np.ndarray) -> np.ndarray:
     """Run a one-op model once and return its first output."""
-    return OneOpRunner(model, kernel_set)(*inputs)[0]
+    return OneOpRunner(model, runtime)(*inputs)[0]

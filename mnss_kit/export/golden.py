@@ -26,9 +26,8 @@ import numpy as np
 from ..gpu.reference import ReferencePasses
 from ..gpu.schedule import GpuStage, NpuBoundary, after_npu, before_npu, next_state
 from ..ops.jitter import subpixel_index
+from ..ops.runtimes import get_runtime, runtime_names
 
-# numerics profile -> LiteRT op resolver running those kernels (quantize.runtime.RESOLVERS)
-PROFILE_RESOLVERS = {"tflite_reference": "reference", "tflite_optimized": "optimized", "xnnpack": "xnnpack"}
 ARRAY_DTYPES = {"color": "float16", "depth": "float32", "motion": "float32", "npu_input": "int8", "npu_output": "int8", "display": "uint8"}
 TOLERANCES = {
     "npu_input_lsb": 1,
@@ -69,10 +68,9 @@ def run_golden(stage: GpuStage, frames: list[dict], tflite: bytes, boundary: Npu
     """Run ``frames`` (numpy frames, first one treated as a reset) through the reference pipeline."""
     from ..quantize.runtime import TfliteRunner
 
-    resolver = PROFILE_RESOLVERS.get(boundary.profile)
-    if resolver is None:
-        raise ValueError(f"golden frames need a LiteRT profile ({', '.join(PROFILE_RESOLVERS)}), got {boundary.profile!r}")
-    runner = TfliteRunner(tflite, resolver)
+    if get_runtime(boundary.profile).engine != "litert":
+        raise ValueError(f"golden frames need a LiteRT runtime ({', '.join(runtime_names('litert'))}), got {boundary.profile!r}")
+    runner = TfliteRunner(tflite, boundary.profile)
     passes = ReferencePasses()
     state, out = None, []
     for t, frame in enumerate(frames):

@@ -23,7 +23,7 @@ from ..gpu import passes as P
 from ..model.config import aa_input_channels
 from ..gpu.schedule import GpuStage
 from ..gpu.weights import Conv3x3, layers_of
-from ..ops import quant
+from ..ops.runtimes import get_runtime
 
 WEIGHTS_FILE = "gpu_weights.bin"
 WEIGHTS_PREFIX = "weights:"  # a bind target naming a block of the weight file
@@ -174,8 +174,8 @@ def _frame(key: str) -> dict:
 
 
 def quantize_uniforms(scale: float, zero_point: int, profile: str) -> dict:
-    """``insert_pack_pass`` quantization uniforms for the NPU input and a numerics profile."""
-    p = quant.get_profile(profile)
+    """``insert_pack_pass`` quantization uniforms for the NPU input and a runtime's QUANTIZE rounding."""
+    p = get_runtime(profile)
     s = np.float32(scale)
     return {
         "u_q_scale": _const(float(s)),

@@ -37,7 +37,7 @@ def make_spec(seed: int = 0, with_history: bool = True) -> BundleSpec:
     tflite, onnx = recon_files(LR_SIZE[1] * 2, LR_SIZE[0] * 2, seed=seed)
     graph = read_npu_graph(tflite)
     (si, zi), (so, zo) = graph.tensors["x"].qparams(), graph.tensors["y"].qparams()
-    boundary = NpuBoundary(float(si), zi, float(so), zo, "tflite_reference")
+    boundary = NpuBoundary(float(si), zi, float(so), zo, "tflite-ref")
     return BundleSpec("in-memory bundle", graph, tflite, onnx, stage, boundary, "x", "y", LR_SIZE)
 
 

@@ -38,7 +38,7 @@ def test_reference_pipeline_from_the_bundle_reproduces_golden(bundle):
 
     b = open_bundle(bundle)
     stage, boundary = b.gpu_stage(), b.boundary()
-    runner = TfliteRunner(b.npu_model(), "reference")
+    runner = TfliteRunner(b.npu_model(), "tflite-ref")
     passes, state = ReferencePasses(), None
     for i in range(len(b.manifest["golden"]["frames"])):
         frame, want = b.golden_frame(i), b.golden(i)

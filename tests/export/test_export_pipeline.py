@@ -98,13 +98,19 @@ def test_golden_frames_are_rendered_when_no_data_has_the_bundle_size(tiny_ckpt, 
 def test_command_choices_mirror_their_sources():
     """The CLI lists choices without importing the heavy modules that define them."""
     from mnss_kit.export import command
-    from mnss_kit.export.golden import PROFILE_RESOLVERS
     from mnss_kit.quantize.command import METHODS
     from mnss_kit.split.plan import PLACEMENTS
 
-    assert command.PROFILES == tuple(PROFILE_RESOLVERS)
     assert command.METHODS == METHODS
     assert command.PLACEMENTS == PLACEMENTS
+
+
+def test_manifest_schema_accepts_the_runtimes_golden_frames_can_use():
+    """The schema's profile names are the LiteRT runtimes of ops.runtimes: golden frames run in LiteRT."""
+    from mnss_kit.export.manifest import load_schema
+    from mnss_kit.ops.runtimes import runtime_names
+
+    assert tuple(load_schema()["$defs"]["profile"]["enum"]) == runtime_names("litert")
 
 
 def test_a_run_directory_named_like_a_shipped_model_does_not_hide_it(tmp_path, monkeypatch):
