@@ -19,27 +19,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ..ops.npu_ops import NPU_OPS
 from ..ops.runtimes import get_runtime
 
 _TYPES = {"float32": 0, "int32": 2, "int8": 9}
 
 # op name -> (BuiltinOptions member or None, options class name or None)
-_OPTIONS = {
-    "ADD": ("AddOptions", "AddOptionsT"),
-    "AVERAGE_POOL_2D": ("Pool2DOptions", "Pool2DOptionsT"),
-    "CONCATENATION": ("ConcatenationOptions", "ConcatenationOptionsT"),
-    "CONV_2D": ("Conv2DOptions", "Conv2DOptionsT"),
-    "DEPTHWISE_CONV_2D": ("DepthwiseConv2DOptions", "DepthwiseConv2DOptionsT"),
-    "DEPTH_TO_SPACE": ("DepthToSpaceOptions", "DepthToSpaceOptionsT"),
-    "DEQUANTIZE": (None, None),
-    "LOGISTIC": (None, None),
-    "MUL": ("MulOptions", "MulOptionsT"),
-    "PAD": ("PadOptions", "PadOptionsT"),
-    "QUANTIZE": (None, None),
-    "RESIZE_BILINEAR": ("ResizeBilinearOptions", "ResizeBilinearOptionsT"),
-    "SPACE_TO_DEPTH": ("SpaceToDepthOptions", "SpaceToDepthOptionsT"),
-    "TANH": (None, None),
-}
+_OPTIONS = {name: (op.options, op.options and op.options + "T") for name, op in NPU_OPS.items()}
 
 PADDING = {"SAME": 0, "VALID": 1}
 ACTIVATION = {"NONE": 0, "RELU": 1, "RELU_N1_TO_1": 2, "RELU6": 3}

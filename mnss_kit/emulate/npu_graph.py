@@ -19,25 +19,11 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
+from ..ops.npu_ops import NPU_OPS
 
 
 # operator -> number of activation (non-constant) inputs it takes; constants follow them
-SUPPORTED_OPS = {
-    "CONV_2D": 1,
-    "DEPTHWISE_CONV_2D": 1,
-    "ADD": 2,
-    "MUL": 2,
-    "CONCATENATION": None,  # any number
-    "LOGISTIC": 1,
-    "TANH": 1,
-    "AVERAGE_POOL_2D": 1,
-    "RESIZE_BILINEAR": 1,
-    "DEPTH_TO_SPACE": 1,
-    "SPACE_TO_DEPTH": 1,
-    "PAD": 1,
-    "QUANTIZE": 1,
-    "DEQUANTIZE": 1,
-}
+SUPPORTED_OPS = {name: op.activation_inputs for name, op in NPU_OPS.items()}
 ACTIVATIONS = {0: "none", 1: "relu", 2: "relu_n1_to_1", 3: "relu6"}
 NUMPY_TYPES = {0: np.float32, 2: np.int32, 4: np.int64, 7: np.int16, 9: np.int8}
 
