@@ -1,7 +1,7 @@
-"""Time the emulator's int8 CONV_2D (and a few other kernels) per kernel set; JSON out.
+"""Time the emulator's int8 CONV_2D (and a few other kernels) per runtime; JSON out.
 
 A 3x3 convolution of realistic size for the NPU part of a x2 model at 720p
-output (LR 640x360, 32 -> 32 channels) is timed under every kernel set, split
+output (LR 640x360, 32 -> 32 channels) is timed under every runtime, split
 into accumulation (im2col + float matmul) and requantization.  Medians over
 repeated runs; the machine is shared, so compare numbers from one run only.
 
@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from mnss_kit.emulate import kernels
-from mnss_kit.emulate.profiles import KERNEL_SETS
 from mnss_kit.fileio import atomic_write_json
 from mnss_kit.ops import quant
+from mnss_kit.ops.runtimes import RUNTIMES
 
 
 def median_seconds(fn, repeats: int) -> float:
@@ -57,13 +57,12 @@ def main() -> int:
     acc = kernels.conv_accumulators(x, x_q[1], weights, bias)
     results = {"accumulate_s": median_seconds(lambda: kernels.conv_accumulators(x, x_q[1], weights, bias), args.repeats)}
     per_set = {}
-    for name in KERNEL_SETS:
-        conv = median_seconds(lambda: kernels.conv2d(x, x_q, weights, w_scales, bias, out_q, profile=name), args.repeats)
-        dw = median_seconds(lambda: kernels.depthwise_conv2d(x, x_q, dw_weights, w_scales, bias, out_q, profile=name),
+    for name in RUNTIMES:
+        conv = median_seconds(lambda: kernels.conv2d(x, x_q, weights, w_scales, bias, out_q, runtime=name), args.repeats)
+        dw = median_seconds(lambda: kernels.depthwise_conv2d(x, x_q, dw_weights, w_scales, bias, out_q, runtime=name),
                             args.repeats)
-        add = median_seconds(lambda: kernels.add(x, x_q, x, x_q, out_q, profile=name), args.repeats)
-        numerics = KERNEL_SETS[name].numerics
-        requant = median_seconds(lambda: quant.requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], numerics), args.repeats)
+        add = median_seconds(lambda: kernels.add(x, x_q, x, x_q, out_q, runtime=name), args.repeats)
+        requant = median_seconds(lambda: quant.requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], name), args.repeats)
         per_set[name] = {"conv2d_s": conv, "requantize_s": requant, "depthwise3x3_s": dw, "add_s": add,
                          "conv2d_gmac_per_s": macs / conv / 1e9}
     report = {
@@ -73,7 +72,7 @@ def main() -> int:
         "repeats": args.repeats,
         "statistic": "median",
         "results": results,
-        "kernel_sets": per_set,
+        "runtimes": per_set,
         "machine": {"python": platform.python_version(), "numpy": np.__version__, "processor": platform.processor(),
                     "machine": platform.machine()},
     }

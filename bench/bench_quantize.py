@@ -75,12 +75,12 @@ def main() -> int:
     x_float = [np.ascontiguousarray(samples[0][0].transpose(0, 2, 3, 1))]
     x_int8 = quantize_inputs(int8_graph, samples[0])
     runners = {}
-    for resolver in ("optimized", "xnnpack"):
-        runners[f"litert_{resolver}"] = (
-            TfliteRunner(files["int8_tflite"], resolver, num_threads=args.threads),
-            TfliteRunner(files["fp32_tflite"], resolver, num_threads=args.threads),
+    for runtime in ("tflite-builtin", "xnnpack"):
+        runners[runtime] = (
+            TfliteRunner(files["int8_tflite"], runtime, num_threads=args.threads),
+            TfliteRunner(files["fp32_tflite"], runtime, num_threads=args.threads),
         )
-    runners["onnxruntime"] = (OnnxRunner(files["int8_qdq_onnx"], num_threads=args.threads), OnnxRunner(files["fp32_onnx"], num_threads=args.threads))
+    runners["ort-cpu"] = (OnnxRunner(files["int8_qdq_onnx"], num_threads=args.threads), OnnxRunner(files["fp32_onnx"], num_threads=args.threads))
 
     latency = {}
     for name, (int8_runner, fp32_runner) in runners.items():

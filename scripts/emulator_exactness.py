@@ -18,12 +18,12 @@ import numpy as np
 
 from mnss_kit.dataset.format import read_meta
 from mnss_kit.emulate.frame_loop import Emulator
-from mnss_kit.emulate.npu import NPU_PROFILES
 from mnss_kit.emulate.sequence import sequence_frames
+from mnss_kit.ops.runtimes import RUNTIMES
 
 
 def compare(bundle: Path, frames: list[dict], profile: str) -> dict:
-    runtime_backend = "litert" if NPU_PROFILES[profile].runtime == "litert" else "onnxruntime"
+    runtime_backend = RUNTIMES[profile].engine
     emulated, runtime = Emulator(bundle, profile, "numpy"), Emulator(bundle, profile, runtime_backend)
     compared = differing = 0
     for frame in frames:
@@ -44,7 +44,7 @@ def main() -> None:
     args = parser.parse_args()
     frames = [f for _, f, _ in sequence_frames(args.data, read_meta(args.data), args.frames)]
     results = {}
-    for profile in NPU_PROFILES:
+    for profile in RUNTIMES:
         results[profile] = compare(args.bundle, frames, profile)
         print(profile, results[profile], flush=True)
     args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -36,6 +36,7 @@ sys.path.insert(0, str(REPO))
 from quantize_study import DOC, DRIFT_JSON, STUDY_JSON, plain, write_doc  # noqa: E402  (same folder)
 
 from mnss_kit.fileio import atomic_write_json  # noqa: E402
+from mnss_kit.ops.runtimes import runtime_names  # noqa: E402
 
 WINDOW = 100  # frames per compared window
 TOLERANCE_DB = 0.1
@@ -51,7 +52,7 @@ def main(argv=None) -> int:
     parser.add_argument("--method", default="minmax", choices=("minmax", "percentile", "entropy", "mse"))
     parser.add_argument("--a16", type=int, default=0, help="16-bit activation tensors (default 0)")
     parser.add_argument("--calib-frames", type=int, default=24, help="calibration samples (default 24)")
-    parser.add_argument("--runtime", choices=("reference", "optimized", "xnnpack"), default="xnnpack",
+    parser.add_argument("--runtime", choices=runtime_names("litert"), default="xnnpack",
                         help="LiteRT kernels for the int8 stage (default xnnpack)")
     parser.add_argument("--crop", metavar="WxH", help="centred LR crop (default: full frames)")
     parser.add_argument("--inversion-steps", type=int, default=4, help="fixed-point steps inverting motion for backward playback")
@@ -208,7 +209,7 @@ def run(args) -> dict:
         },
         "quantization": {"method": args.method, "a16": args.a16, "int16_tensors": art.report["int16"],
                          "calibration_data": str(args.calib), "samples": len(samples)},
-        "int8_runtime": f"litert_{args.runtime}",
+        "int8_runtime": args.runtime,
         "windows": windows,
         "result": {"int8_drift_db": drift["int8"], "fp32_drift_db": drift["fp32"], "tolerance_db": TOLERANCE_DB,
                    "int8_within_tolerance": abs(drift["int8"]) <= TOLERANCE_DB},

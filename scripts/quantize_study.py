@@ -27,6 +27,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "bench"))
 
 from mnss_kit.fileio import atomic_output_path, atomic_write_json, atomic_write_text  # noqa: E402
+from mnss_kit.ops.runtimes import DEFAULT_RUNTIME, get_runtime, runtime_names  # noqa: E402
 
 STUDY_JSON = REPO / "bench" / "results" / "quantize_study.json"
 DRIFT_JSON = REPO / "bench" / "results" / "int8_drift.json"
@@ -45,9 +46,9 @@ def main(argv=None) -> int:
     parser.add_argument("--a16", nargs="+", type=int, default=[0, 2], metavar="N", help="A16 tensor counts to try (default 0 2)")
     parser.add_argument("--frames", type=int, default=24, help="calibration samples (default 24, as mnss-kit quantize)")
     parser.add_argument("--max-frames", type=int, help="frames per held-out sequence (default: all)")
-    parser.add_argument("--runtime", choices=("reference", "optimized", "xnnpack"), default="xnnpack",
+    parser.add_argument("--runtime", choices=runtime_names("litert"), default="xnnpack",
                         help="LiteRT kernels that run the int8 stage in the evaluation (default xnnpack; reference is ~50x slower)")
-    parser.add_argument("--check-runtime", choices=("reference", "optimized", "xnnpack"), default="reference",
+    parser.add_argument("--check-runtime", choices=runtime_names("litert"), default=DEFAULT_RUNTIME,
                         help="also run the first setting with these kernels, to show what the kernel choice changes (default reference)")
     parser.add_argument("--repeats", type=int, default=10, help="latency runs per setting (median)")
     parser.add_argument("--agreement-samples", type=int, default=4, help="calibration samples for the runtime-agreement study")
@@ -115,7 +116,7 @@ def measure(args, argv: list[str]) -> dict:
             "fp32": cmp["fp32"], "int8": cmp["int8"], "delta": cmp["delta"],
             "sequences": cmp["sequences"],
             "meets_target": meets_target(cmp["delta"]),
-            "stage_output_psnr_db": art.report["output"]["litert_reference"]["psnr_db"],
+            "stage_output_psnr_db": art.report["output"]["tflite-ref"]["psnr_db"],
             "agreement_end_to_end_max_lsb": art.report["agreement"]["end_to_end_max_lsb"],
             "agreement_per_op_max_lsb": art.report["agreement"]["per_op_max_lsb"],
             "tflite_bytes": len(art.tflite),
@@ -129,15 +130,15 @@ def measure(args, argv: list[str]) -> dict:
         "calibration": {"data": str(args.calib), "samples": len(samples), "recording": "recurrent float runs, spread over every sequence"},
         "evaluation": evaluation_info(result, args.runtime, held_out=True, data_label=str(args.data)),
         "target": {"delta_psnr_db_at_least": TARGET["psnr"], "delta_if_ssim_at_least": TARGET["if_ssim"]},
-        "latency": {"runtime": "litert_xnnpack (LiteRT AUTO), 1 thread, this CPU", "input_nhwc": nhwc_shape(samples[0][0]),
+        "latency": {"runtime": "xnnpack (LiteRT AUTO), 1 thread, this CPU", "input_nhwc": nhwc_shape(samples[0][0]),
                     "repeats": args.repeats, "statistic": "median of interleaved runs", "fp32_ms": fp32_latency,
                     "note": "int16 activations have no XNNPACK kernels; those ops fall back to LiteRT builtin kernels"},
         "settings": settings,
         "agreement": agreement,
         "runtime_check": None if check is None else {
-            "setting": first.report["model"], "runtimes": [f"litert_{args.runtime}", f"litert_{args.check_runtime}"],
-            "int8": {f"litert_{args.runtime}": fp32_vs_int8(result, first.report["model"])["int8"],
-                     f"litert_{args.check_runtime}": fp32_vs_int8(result, check)["int8"]},
+            "setting": first.report["model"], "runtimes": [args.runtime, args.check_runtime],
+            "int8": {args.runtime: fp32_vs_int8(result, first.report["model"])["int8"],
+                     args.check_runtime: fp32_vs_int8(result, check)["int8"]},
         },
         "machine": {"platform": platform.platform(), "python": platform.python_version()},
     }
@@ -188,26 +189,26 @@ def lsb_study(graph, tflite: bytes, samples) -> dict:
     from mnss_kit.ops import quant as Q
     from mnss_kit.quantize.graph import conv_pads, op_graph
     from mnss_kit.quantize.onnx_writer import to_onnx
-    from mnss_kit.quantize.runtime import RESOLVERS, OnnxRunner, TfliteRunner, quantize_inputs
+    from mnss_kit.quantize.runtime import OnnxRunner, TfliteRunner, quantize_inputs
     from mnss_kit.quantize.tflite_writer import to_tflite
 
     names = [n for n in graph.activations() if graph.tensors[n].dtype == "int8"]
-    runners = {f"litert_{r}": TfliteRunner(tflite, r, preserve_all=True) for r in RESOLVERS}
+    runners = {r: TfliteRunner(tflite, r, preserve_all=True) for r in runtime_names("litert")}
     ort = OnnxRunner(to_onnx(graph, expose=graph.activations()))
-    alone_runners = {op.outputs[0]: TfliteRunner(to_tflite(op_graph(graph, op)), "reference") for op in graph.ops}
+    alone_runners = {op.outputs[0]: TfliteRunner(to_tflite(op_graph(graph, op)), "tflite-ref") for op in graph.ops}
     pairs: dict[str, int] = {}
     rows = {n: {"tensor": n, "op": (graph.producer(n).kind if graph.producer(n) else "INPUT"), "whole_graph_max_lsb": 0,
                 "differing": 0, "values": 0, "alone_max_lsb": 0} for n in names}
     for sample in samples:
         q = quantize_inputs(graph, list(sample))
         outs = {k: r.run(q, names) for k, r in runners.items()}
-        outs["onnxruntime"] = ort.run(q)
+        outs["ort-cpu"] = ort.run(q)
         keys = list(outs)
         for i, a in enumerate(keys):
             for b in keys[i + 1:]:
                 worst = max(_lsb(outs[a][n], outs[b][n]).max() for n in names)
                 pairs[f"{a} vs {b}"] = max(pairs.get(f"{a} vs {b}", 0), int(worst))
-        ref, onnx = outs["litert_reference"], outs["onnxruntime"]
+        ref, onnx = outs["tflite-ref"], outs["ort-cpu"]
         for op in graph.ops:
             out = op.outputs[0]
             if out not in rows:
@@ -225,7 +226,7 @@ def lsb_study(graph, tflite: bytes, samples) -> dict:
                 x, w, bias = (graph.tensors[n] for n in op.inputs[:3])
                 o = graph.tensors[out]
                 acc = Q.conv2d_accumulate(sub_inputs[0], x.zero_point, w.data, bias.data, padding=conv_pads(graph, op))
-                real = Q.effective_multiplier(x.scale, w.scale, o.scale, Q.get_profile("tflite_reference"))
+                real = Q.effective_multiplier(x.scale, w.scale, o.scale, get_runtime("tflite-ref"))
                 pairs_q31 = [Q.quantize_multiplier(float(r)) for r in real]
                 mult = np.array([m * 2.0 ** (sh - 31) for m, sh in pairs_q31])
                 right = np.array([max(-sh, 0) for _, sh in pairs_q31])
@@ -319,8 +320,8 @@ def study_section(study: dict, doc: Path) -> list[str]:
         f"NPU-stage inputs from {study['calibration']['recording']} of `{study['calibration']['data']}`.  "
         f"Evaluation: {ev['evaluator']}; {ev['sequences']} held-out sequences of `{ev['data']}`, "
         f"{'all frames' if ev['max_frames_per_sequence'] is None else 'at most %d frames' % ev['max_frames_per_sequence']} per sequence, "
-        f"{ev['frames']} frames in all.  GPU part: {ev['gpu_part']}.  int8 NPU stage: `npu.tflite` run by {ev['int8_runtime']} "
-        f"(bit-exact numerics profile `{ev['int8_numerics_profile']}`).  fp32 and every int8 setting ran side by side in one pass.",
+        f"{ev['frames']} frames in all.  GPU part: {ev['gpu_part']}.  int8 NPU stage: `npu.tflite` run by {ev['int8_runtime']}.  "
+        f"fp32 and every int8 setting ran side by side in one pass.",
         "",
         f"**Meets the target: {', '.join(met) if met else 'none of the settings'}.**",
         "",

@@ -35,6 +35,7 @@ import numpy as np  # noqa: E402
 
 from mnss_kit.fileio import atomic_write_json, atomic_write_text  # noqa: E402
 from mnss_kit.metrics.psnr import mse_psnr  # noqa: E402
+from mnss_kit.ops.runtimes import DEFAULT_RUNTIME, runtime_names  # noqa: E402
 
 BUDGET_DB = 0.2  # int8 loss budget of the quantization study (fp32 -> int8 mean PSNR)
 DOC = REPO / "docs" / "split_e2e.md"
@@ -223,7 +224,7 @@ def _environment(emulator) -> dict:
         renderer = f"{ctx.info.get('GL_RENDERER', '?')}, {ctx.info.get('GL_VERSION', '?')}"
     profile = get_npu_profile(emulator.npu_profile)
     return {"gpu_renderer": renderer, "litert_version": version("ai-edge-litert"),
-            "npu_kernels": f"{profile.description}, OpResolverType.{profile.litert_resolver}"}
+            "npu_kernels": profile.description}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -236,7 +237,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--bundle", type=Path, help="use this bundle instead of exporting one")
     parser.add_argument("--bundle-out", type=Path, default=Path("/tmp/split_e2e_bundle"), help="where to export")
     parser.add_argument("--frames", type=int, default=60, help="first N frames of each sequence")
-    parser.add_argument("--npu-profile", default="tflite-ref", choices=("tflite-ref", "tflite-builtin", "xnnpack"))
+    parser.add_argument("--npu-profile", default=DEFAULT_RUNTIME, choices=runtime_names("litert"))
     parser.add_argument("--budget-db", type=float, default=BUDGET_DB)
     parser.add_argument("--json", type=Path, default=JSON)
     parser.add_argument("--doc", type=Path, default=DOC)

@@ -6,8 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..ops.runtimes import DEFAULT_RUNTIME, runtime_names
+
 HELP = "run a bundle on the desktop (bit-exact NPU profiles, GPU passes in numpy or Mesa), or compare tensor dumps"
-NPU_PROFILES = ("tflite-ref", "tflite-builtin", "xnnpack", "ort-cpu")  # emulate.npu.NPU_PROFILES, listed here to keep --help light
 NPU_BACKENDS = ("numpy", "litert", "onnxruntime")
 GPU_BACKENDS = ("numpy", "mesa")
 
@@ -16,9 +17,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("bundle", nargs="?", type=Path, help="bundle directory (written by `mnss-kit export`)")
     parser.add_argument("--data", type=Path, help="dataset directory or one sequence to run")
     parser.add_argument("--out", type=Path, help="output directory: display PNGs, metrics.json, dumps")
-    parser.add_argument("--npu-profile", choices=NPU_PROFILES, default=None,
-                        help="CPU kernels the NPU stage reproduces bit for bit (default: tflite-ref; ort-cpu with "
-                             "--npu-backend onnxruntime)")
+    parser.add_argument("--npu-profile", choices=runtime_names(), default=None,
+                        help=f"runtime whose CPU kernels the NPU stage reproduces bit for bit (default: {DEFAULT_RUNTIME}; "
+                             f"{', '.join(runtime_names('onnxruntime'))} with --npu-backend onnxruntime)")
     parser.add_argument("--npu-backend", choices=NPU_BACKENDS, default="numpy",
                         help="numpy: interpret npu.tflite op by op; litert / onnxruntime: run the bundle's files there")
     parser.add_argument("--gpu-backend", choices=GPU_BACKENDS, default="numpy",
@@ -59,7 +60,7 @@ def _emulate(args: argparse.Namespace) -> int:
     from .frame_loop import Emulator
     from .sequence import run_dataset
 
-    profile = args.npu_profile or ("ort-cpu" if args.npu_backend == "onnxruntime" else "tflite-ref")
+    profile = args.npu_profile or (runtime_names("onnxruntime")[0] if args.npu_backend == "onnxruntime" else DEFAULT_RUNTIME)
     emulator = Emulator(args.bundle, profile, args.npu_backend, args.gpu_backend)
     report = run_dataset(emulator, args.data, out_dir=args.out, dump=args.dump, frames=args.frames,
                          overwrite=args.overwrite, progress=not args.no_progress)

@@ -1,7 +1,7 @@
 """Faster, bit-identical convolutions and elementwise ops for the emulator's NPU stage.
 
 ``ops.quant.requantize`` is the readable definition of each runtime's
-requantization; under the TFLite profiles (Q31 multiplier and shift) it makes
+requantization; under the LiteRT runtimes (Q31 multiplier and shift) it makes
 a dozen int64 passes with divisions, ``np.where`` and modulo, about 190 ns per
 value, which dominates a 720p frame.  :class:`Requantizer` computes the same
 integers with a few in-place int64 passes (about 10x faster) by using two
@@ -20,7 +20,7 @@ facts:
 The accumulator is wrapped to int32 before the left shift, exactly as the
 runtimes' int32 arithmetic (and ``quant.multiply_by_quantized_multiplier``)
 does; the wrap is skipped when the caller knows the values fit.  Float32
-profiles (XNNPACK, ONNX Runtime) are already a couple of vector passes and
+runtimes (XNNPACK, ONNX Runtime) are already a couple of vector passes and
 use ``quant.requantize`` unchanged.
 
 :func:`conv2d` runs a convolution in blocks of output rows: the definition's exact
@@ -34,7 +34,7 @@ holds for every formula except a vector formula (``quant_ops.vector_width``, Lit
 ADD) on a tensor whose size is not a multiple of its vector width (the tail rounds
 differently); that case keeps the kernel.
 ``tests/emulate/test_frame_loop_fast.py`` asserts equality with the definitions for every
-kernel set.
+runtime.
 """
 
 from __future__ import annotations
@@ -42,8 +42,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..ops import quant, quant_ops
+from ..ops.runtimes import Runtime, get_runtime
 from . import kernels
-from .profiles import KernelSet, get_kernel_set
 
 QParams = kernels.QParams
 _INT32_SPAN = 1 << 32
@@ -51,18 +51,18 @@ _INT32_OFFSET = 1 << 31
 
 
 class Requantizer:
-    """int32 accumulators ``(..., C)`` of one convolution -> int8, for fixed scales and one numerics profile.
+    """int32 accumulators ``(..., C)`` of one convolution -> int8, for fixed scales and one runtime.
 
     ``x_q``/``out_q``: ``(scale, zero_point)``; ``w_scales`` (C,) float32;
-    ``activation`` a fused activation name; ``numerics`` an ``ops.quant`` profile name.
+    ``activation`` a fused activation name; ``runtime`` an ``ops.runtimes`` runtime (or name)
+    whose CONV_2D requantization rule applies.
     """
 
-    def __init__(self, x_q: QParams, w_scales: np.ndarray, out_q: QParams, activation: str, numerics: str):
+    def __init__(self, x_q: QParams, w_scales: np.ndarray, out_q: QParams, activation: str, runtime: str | Runtime):
         self.x_q, self.out_q = x_q, out_q
         self.w_scales = np.atleast_1d(np.asarray(w_scales, dtype=np.float32))
-        self.numerics = numerics
+        self.runtime = profile = get_runtime(runtime)
         self.clamp = quant.activation_bounds(activation, out_q[0], out_q[1])
-        profile = quant.get_profile(numerics)
         self.q31 = profile.multiplier == "q31"
         if not self.q31:
             return
@@ -85,7 +85,7 @@ class Requantizer:
     def __call__(self, acc: np.ndarray, fits_int32: bool = False) -> np.ndarray:
         """``acc`` int64 (..., C) (overwritten) -> int8.  ``fits_int32``: every value is known to be an int32."""
         if not self.q31:
-            return quant.requantize(acc, self.x_q[0], self.w_scales, self.out_q[0], self.out_q[1], self.numerics, clamp=self.clamp)
+            return quant.requantize(acc, self.x_q[0], self.w_scales, self.out_q[0], self.out_q[1], self.runtime, clamp=self.clamp)
         x = acc if acc.dtype == np.int64 else acc.astype(np.int64)
         if self.any_left:
             x <<= self.left
@@ -142,16 +142,16 @@ def conv2d(x: np.ndarray, x_q: QParams, weights: np.ndarray, bias: np.ndarray | 
 
 
 class DepthwiseRequantizers:
-    """The body / tail requantizers of ``kernels.depthwise_conv2d`` under one kernel set."""
+    """The body / tail requantizers of ``kernels.depthwise_conv2d`` under one runtime."""
 
     def __init__(self, x_q: QParams, w_scales: np.ndarray, out_q: QParams, activation: str, channels: int,
-                 profile: str | KernelSet):
-        ks = get_kernel_set(profile)
+                 runtime: str | Runtime):
+        rt = get_runtime(runtime)
         scales = np.broadcast_to(np.asarray(w_scales, dtype=np.float32), (channels,))
-        width = ks.depthwise_vector_channels
+        width = rt.depthwise_vector_channels
         self.body = channels // width * width if width else channels
-        self.head = Requantizer(x_q, scales[:self.body], out_q, activation, ks.depthwise_numerics) if self.body else None
-        self.tail = Requantizer(x_q, scales[self.body:], out_q, activation, ks.depthwise_tail_numerics) if self.body < channels else None
+        self.head = Requantizer(x_q, scales[:self.body], out_q, activation, rt) if self.body else None
+        self.tail = Requantizer(x_q, scales[self.body:], out_q, activation, rt.depthwise_tail) if self.body < channels else None
 
 
 def depthwise_conv2d(x: np.ndarray, x_q: QParams, weights: np.ndarray, bias: np.ndarray | None,
@@ -174,13 +174,13 @@ _ALL_PAIRS = (np.repeat(np.arange(-128, 128), 256).astype(np.int8), np.tile(np.a
 class PairTable:
     """An int8 binary op (``kernels.add`` / ``kernels.mul``) as a 256x256 lookup table.
 
-    ``kernel(a, a_q, b, b_q, out_q, activation, kernel_set)``; see the module docstring for when
+    ``kernel(a, a_q, b, b_q, out_q, activation, runtime)``; see the module docstring for when
     a table is exact (:func:`pair_table_is_exact`).
     """
 
-    def __init__(self, kernel, a_q: QParams, b_q: QParams, out_q: QParams, activation: str, kernel_set: KernelSet):
+    def __init__(self, kernel, a_q: QParams, b_q: QParams, out_q: QParams, activation: str, runtime: Runtime):
         a, b = _ALL_PAIRS  # 65536 values: a multiple of every vector width, so all take the vector body
-        self.table = kernel(a, a_q, b, b_q, out_q, activation, kernel_set).reshape(-1)
+        self.table = kernel(a, a_q, b, b_q, out_q, activation, runtime).reshape(-1)
 
     def __call__(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """``a``, ``b`` int8 of one shape -> int8 of that shape."""
@@ -190,7 +190,7 @@ class PairTable:
         return self.table[index]
 
 
-def pair_table_is_exact(kind: str, kernel_set: KernelSet, size: int) -> bool:
-    """True if ``kind`` (ADD or MUL) under ``kernel_set`` on ``size`` values depends on the operand values only."""
-    width = quant_ops.vector_width(kind, kernel_set.formula(kind))
+def pair_table_is_exact(kind: str, runtime: Runtime, size: int) -> bool:
+    """True if ``kind`` (ADD or MUL) under ``runtime`` on ``size`` values depends on the operand values only."""
+    width = quant_ops.vector_width(kind, runtime.formula(kind))
     return width == 0 or size % width == 0

@@ -1,11 +1,11 @@
-"""Op-by-op numpy interpretation of an :class:`~.npu_graph.NpuGraph` under one kernel set.
+"""Op-by-op numpy interpretation of an :class:`~.npu_graph.NpuGraph` under one runtime.
 
 Each operator is prepared once (:meth:`NumpyInterpreter._prepare`: parameters
 read from the graph, requantization multipliers computed, unsupported
 combinations refused with a ``UserError`` naming the operator) and then run
 per frame.  The arithmetic is ``emulate.kernels`` (convolutions through the
-bit-identical fast requantization of ``emulate.fast``); the kernel set is data
-and the interpreter never branches on its name.
+bit-identical fast requantization of ``emulate.fast``); the runtime is data
+(``ops.runtimes``) and the interpreter never branches on its name.
 """
 
 from __future__ import annotations
@@ -17,19 +17,19 @@ import numpy as np
 from ..errors import UserError
 from ..export.npu_files import NpuTensor
 from ..ops import quant
+from ..ops.runtimes import Runtime
 from . import fast, kernels
 from .npu_graph import NpuGraph, NpuOp
-from .profiles import KernelSet
 
 Step = Callable[[list[np.ndarray]], np.ndarray]
 
 
 class NumpyInterpreter:
-    """Runs ``graph`` with the kernels of ``kernel_set``; int8 NHWC tensors in and out."""
+    """Runs ``graph`` with the kernels of ``runtime``; int8 NHWC tensors in and out."""
 
-    def __init__(self, graph: NpuGraph, kernel_set: KernelSet):
+    def __init__(self, graph: NpuGraph, runtime: Runtime):
         self.graph = graph
-        self.ks = kernel_set
+        self.rt = runtime
         for name in graph.execution_order():
             t = graph.tensors[name]
             if t.dtype not in ("int8", "float32"):
@@ -93,7 +93,7 @@ class NumpyInterpreter:
         cin = self.tensor(op.inputs[0]).shape[-1]
         if len(w.shape) != 4 or w.shape[3] != cin:
             raise self.fail(op, f"weights '{w.name}' have shape {list(w.shape)}, expected (Co, KH, KW, {cin})")
-        requantize = fast.Requantizer(x_q, self._weight_scales(op, w, w.shape[0]), out_q, op.options["activation"], self.ks.numerics)
+        requantize = fast.Requantizer(x_q, self._weight_scales(op, w, w.shape[0]), out_q, op.options["activation"], self.rt)
         weights, stride, padding = w.data, op.options["stride"], op.options["padding"]
         return lambda v: fast.conv2d(v[0], x_q, weights, bias, requantize, stride, padding)
 
@@ -106,7 +106,7 @@ class NumpyInterpreter:
         channels = w.shape[3]
         bias = self._bias(op, channels)
         requantizers = fast.DepthwiseRequantizers(x_q, self._weight_scales(op, w, channels), out_q,
-                                                  op.options["activation"], channels, self.ks)
+                                                  op.options["activation"], channels, self.rt)
         weights, stride, padding = w.data, op.options["stride"], op.options["padding"]
         return lambda v: fast.depthwise_conv2d(v[0], x_q, weights, bias, requantizers, stride, padding)
 
@@ -133,11 +133,11 @@ class NumpyInterpreter:
             raise self.fail(op, f"operands '{a.name}' {list(a.shape)} and '{b.name}' {list(b.shape)} differ in shape; "
                                 "broadcasting is not implemented by the emulator")
         a_q, b_q, out_q = (self.qparams(op, n) for n in (op.inputs[0], op.inputs[1], op.outputs[0]))
-        activation, ks = op.options["activation"], self.ks
-        if a.dtype == b.dtype == "int8" and fast.pair_table_is_exact(op.kind, ks, int(np.prod(a.shape))):
-            table = fast.PairTable(kernel, a_q, b_q, out_q, activation, ks)
+        activation, rt = op.options["activation"], self.rt
+        if a.dtype == b.dtype == "int8" and fast.pair_table_is_exact(op.kind, rt, int(np.prod(a.shape))):
+            table = fast.PairTable(kernel, a_q, b_q, out_q, activation, rt)
             return lambda v: table(np.ascontiguousarray(v[0]), np.ascontiguousarray(v[1]))
-        return lambda v: kernel(v[0], a_q, v[1], b_q, out_q, activation, ks)
+        return lambda v: kernel(v[0], a_q, v[1], b_q, out_q, activation, rt)
 
     def _prepare_add(self, op: NpuOp) -> Step:
         return self._binary(op, kernels.add)
@@ -160,8 +160,8 @@ class NumpyInterpreter:
         x_q, out_q = self.qparams(op, op.inputs[0]), self.qparams(op, op.outputs[0])
         if np.float32(out_q[0]) != np.float32(fixed[0]) or out_q[1] != fixed[1]:
             raise self.fail(op, f"output params {out_q} must be {fixed} for int8")
-        ks = self.ks
-        return lambda v: kernel(v[0], x_q, ks)
+        rt = self.rt
+        return lambda v: kernel(v[0], x_q, rt)
 
     def _prepare_logistic(self, op: NpuOp) -> Step:
         return self._table(op, kernels.logistic, quant.LOGISTIC_OUTPUT)
@@ -177,13 +177,13 @@ class NumpyInterpreter:
 
     def _prepare_average_pool_2d(self, op: NpuOp) -> Step:
         out_q = self._same_params(op)
-        o, ks = op.options, self.ks
-        return lambda v: kernels.average_pool2d(v[0], o["size"], o["stride"], o["padding"], o["activation"], out_q, ks)
+        o, rt = op.options, self.rt
+        return lambda v: kernels.average_pool2d(v[0], o["size"], o["stride"], o["padding"], o["activation"], out_q, rt)
 
     def _prepare_resize_bilinear(self, op: NpuOp) -> Step:
         self._same_params(op)
-        size, half, ks = op.options["size"], op.options["half_pixel_centers"], self.ks
-        return lambda v: kernels.resize_bilinear(v[0], size, half, ks)
+        size, half, rt = op.options["size"], op.options["half_pixel_centers"], self.rt
+        return lambda v: kernels.resize_bilinear(v[0], size, half, rt)
 
     def _prepare_depth_to_space(self, op: NpuOp) -> Step:
         self._same_params(op)
@@ -203,12 +203,12 @@ class NumpyInterpreter:
         return lambda v: kernels.pad(v[0], paddings, zero_point)
 
     def _prepare_quantize(self, op: NpuOp) -> Step:
-        out_q, ks = self.qparams(op, op.outputs[0]), self.ks
+        out_q, rt = self.qparams(op, op.outputs[0]), self.rt
         if self.tensor(op.inputs[0]).dtype == "float32":
-            return lambda v: kernels.quantize(np.asarray(v[0], np.float32), out_q, ks)
+            return lambda v: kernels.quantize(np.asarray(v[0], np.float32), out_q, rt)
         x_q = self.qparams(op, op.inputs[0])
-        return lambda v: kernels.requantize(v[0], x_q, out_q, ks)
+        return lambda v: kernels.requantize(v[0], x_q, out_q, rt)
 
     def _prepare_dequantize(self, op: NpuOp) -> Step:
-        x_q, ks = self.qparams(op, op.inputs[0]), self.ks
-        return lambda v: kernels.dequantize(v[0], x_q, ks)
+        x_q, rt = self.qparams(op, op.inputs[0]), self.rt
+        return lambda v: kernels.dequantize(v[0], x_q, rt)

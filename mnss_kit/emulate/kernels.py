@@ -1,11 +1,11 @@
 """Integer-exact numpy kernels of the desktop NPU emulator (int8, NHWC).
 
 Each kernel reproduces one LiteRT / XNNPACK / ONNX Runtime kernel bit for
-bit under a named kernel set (``profile``; see ``emulate.profiles``).  The
+bit under a named runtime (``runtime``; see ``mnss_kit.ops.runtimes``).  The
 arithmetic that differs between runtimes (requantization, ADD, MUL,
 QUANTIZE, tables) is defined once in ``mnss_kit.ops.quant`` and
 ``mnss_kit.ops.quant_ops``; this module adds the data movement (im2col,
-windows, padding) and picks the formula the profile names.
+windows, padding) and picks the formula the runtime names.
 
 Conventions: activations are ``(N, H, W, C)`` int8 with per-tensor
 ``(scale, zero_point)`` pairs (``QParams``); CONV_2D weights are OHWI and
@@ -26,8 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from mnss_kit.ops import quant, quant_ops
-
-from .profiles import KernelSet, get_kernel_set
+from mnss_kit.ops.runtimes import Runtime, get_runtime
 
 QParams = tuple[float, int]  # (scale, zero_point) of a per-tensor quantized tensor
 
@@ -120,53 +119,53 @@ def depthwise_accumulators(x: np.ndarray, x_zero_point: int, weights: np.ndarray
 
 
 def _requantize(acc: np.ndarray, x_q: QParams, w_scales: np.ndarray, out_q: QParams, activation: str,
-                numerics: str) -> np.ndarray:
+                runtime: Runtime) -> np.ndarray:
     clamp = quant.activation_bounds(activation, out_q[0], out_q[1])
-    return quant.requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], numerics, clamp=clamp)
+    return quant.requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], runtime, clamp=clamp)
 
 
 def conv2d(x: np.ndarray, x_q: QParams, weights: np.ndarray, w_scales: np.ndarray, bias: np.ndarray | None,
            out_q: QParams, stride: int = 1, padding: str = "SAME", activation: str = "none",
-           profile: str | KernelSet = "tflite_reference") -> np.ndarray:
+           runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """CONV_2D: (N, H, W, Ci) int8 x (Co, KH, KW, Ci) int8 -> (N, Ho, Wo, Co) int8.
 
     ``w_scales`` (Co,) float32, ``bias`` (Co,) int32, ``activation`` one of
     ``none``/``relu``/``relu6``/``relu_n1_to_1`` (a clamp in the output domain).
     """
-    ks = get_kernel_set(profile)
+    rt = get_runtime(runtime)
     acc = conv_accumulators(x, x_q[1], weights, bias, stride, padding)
-    return _requantize(acc, x_q, w_scales, out_q, activation, ks.numerics)
+    return _requantize(acc, x_q, w_scales, out_q, activation, rt)
 
 
 def depthwise_conv2d(x: np.ndarray, x_q: QParams, weights: np.ndarray, w_scales: np.ndarray, bias: np.ndarray | None,
                      out_q: QParams, stride: int = 1, padding: str = "SAME", activation: str = "none",
-                     profile: str | KernelSet = "tflite_reference") -> np.ndarray:
+                     runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """DEPTHWISE_CONV_2D: (N, H, W, Ci) int8 x (1, KH, KW, Co) int8 -> (N, Ho, Wo, Co) int8; Co = Ci * multiplier."""
-    ks = get_kernel_set(profile)
+    rt = get_runtime(runtime)
     acc = depthwise_accumulators(x, x_q[1], weights, bias, stride, padding)
     w_scales = np.broadcast_to(np.asarray(w_scales, dtype=np.float32), acc.shape[-1:])
-    width = ks.depthwise_vector_channels
+    width = rt.depthwise_vector_channels
     body = acc.shape[-1] // width * width if width else acc.shape[-1]
     out = np.empty(acc.shape, dtype=np.int8)
-    out[..., :body] = _requantize(acc[..., :body], x_q, w_scales[:body], out_q, activation, ks.depthwise_numerics)
-    out[..., body:] = _requantize(acc[..., body:], x_q, w_scales[body:], out_q, activation, ks.depthwise_tail_numerics)
+    out[..., :body] = _requantize(acc[..., :body], x_q, w_scales[:body], out_q, activation, rt)
+    out[..., body:] = _requantize(acc[..., body:], x_q, w_scales[body:], out_q, activation, get_runtime(rt.depthwise_tail))
     return out
 
 
 def add(a: np.ndarray, a_q: QParams, b: np.ndarray, b_q: QParams, out_q: QParams, activation: str = "none",
-        profile: str | KernelSet = "tflite_reference") -> np.ndarray:
+        runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """ADD of two int8 tensors of one shape -> int8 (LiteRT's broadcasting paths are not modelled)."""
-    ks = get_kernel_set(profile)
+    rt = get_runtime(runtime)
     clamp = quant.activation_bounds(activation, out_q[0], out_q[1])
-    return quant_ops.add(a, a_q, b, b_q, out_q, ks.add, clamp=clamp)
+    return quant_ops.add(a, a_q, b, b_q, out_q, rt.add, clamp=clamp)
 
 
 def mul(a: np.ndarray, a_q: QParams, b: np.ndarray, b_q: QParams, out_q: QParams, activation: str = "none",
-        profile: str | KernelSet = "tflite_reference") -> np.ndarray:
+        runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """MUL of two int8 tensors of one shape -> int8."""
-    ks = get_kernel_set(profile)
+    rt = get_runtime(runtime)
     clamp = quant.activation_bounds(activation, out_q[0], out_q[1])
-    return quant_ops.mul(a, a_q, b, b_q, out_q, ks.mul, clamp=clamp)
+    return quant_ops.mul(a, a_q, b, b_q, out_q, rt.mul, clamp=clamp)
 
 
 def concatenation(tensors: list[np.ndarray], axis: int = -1) -> np.ndarray:
@@ -174,26 +173,26 @@ def concatenation(tensors: list[np.ndarray], axis: int = -1) -> np.ndarray:
     return np.concatenate(tensors, axis=axis)
 
 
-def logistic(x: np.ndarray, x_q: QParams, profile: str | KernelSet = "tflite_reference") -> np.ndarray:
+def logistic(x: np.ndarray, x_q: QParams, runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """LOGISTIC: int8 -> int8 with the fixed output params (1/256, -128)."""
-    ks = get_kernel_set(profile)
-    return quant_ops.logistic(x, x_q, ks.numerics)
+    rt = get_runtime(runtime)
+    return quant_ops.logistic(x, x_q, rt)
 
 
-def tanh(x: np.ndarray, x_q: QParams, profile: str | KernelSet = "tflite_reference") -> np.ndarray:
+def tanh(x: np.ndarray, x_q: QParams, runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """TANH: int8 -> int8 with the fixed output params (1/128, 0)."""
-    ks = get_kernel_set(profile)
-    return quant_ops.tanh(x, x_q, ks.numerics)
+    rt = get_runtime(runtime)
+    return quant_ops.tanh(x, x_q, rt)
 
 
 def average_pool2d(x: np.ndarray, size: int, stride: int, padding: str = "VALID", activation: str = "none",
-                   out_q: QParams | None = None, profile: str | KernelSet = "tflite_reference") -> np.ndarray:
+                   out_q: QParams | None = None, runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """AVERAGE_POOL_2D (input and output share params): (N, H, W, C) int8 -> (N, Ho, Wo, C) int8.
 
     Padded positions are not counted (the divisor is the number of valid
     inputs under the window).  ``out_q`` is needed only for a fused activation.
     """
-    ks = get_kernel_set(profile)
+    rt = get_runtime(runtime)
     n, h, w, c = x.shape
     ho, top = output_size(h, size, stride, padding)
     wo, left = output_size(w, size, stride, padding)
@@ -212,16 +211,16 @@ def average_pool2d(x: np.ndarray, size: int, stride: int, padding: str = "VALID"
             tap = xi[:, np.clip(yy, 0, h - 1)][:, :, np.clip(xx, 0, w - 1)]
             total += np.where(valid[None, :, :, None], tap, 0)
             count += valid
-    avg = quant_ops.average_pool_divide(total, count[None, :, :, None], ks.average_pool)
+    avg = quant_ops.average_pool_divide(total, count[None, :, :, None], rt.average_pool)
     lo, hi = quant.activation_bounds(activation, *out_q) if out_q is not None else (-128, 127)
     return np.clip(avg, lo, hi).astype(np.int8)
 
 
 def resize_bilinear(x: np.ndarray, out_hw: tuple[int, int], half_pixel_centers: bool = True,
-                    profile: str | KernelSet = "tflite_reference") -> np.ndarray:
+                    runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """RESIZE_BILINEAR (align_corners False): (N, H, W, C) int8 -> (N, Ho, Wo, C) int8, params kept."""
-    ks = get_kernel_set(profile)
-    return quant_ops.resize_bilinear(x, out_hw, half_pixel_centers, ks.resize_bilinear)
+    rt = get_runtime(runtime)
+    return quant_ops.resize_bilinear(x, out_hw, half_pixel_centers, rt.resize_bilinear)
 
 
 def depth_to_space(x: np.ndarray, block: int) -> np.ndarray:
@@ -247,17 +246,16 @@ def pad(x: np.ndarray, paddings: np.ndarray, zero_point: int) -> np.ndarray:
     return np.pad(x, np.asarray(paddings, dtype=np.int64), constant_values=np.int8(zero_point))
 
 
-def quantize(x: np.ndarray, out_q: QParams, profile: str | KernelSet = "tflite_reference") -> np.ndarray:
+def quantize(x: np.ndarray, out_q: QParams, runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """QUANTIZE float32 -> int8."""
-    return quant_ops.quantize(x, out_q, get_kernel_set(profile).quantize)
+    return quant_ops.quantize(x, out_q, runtime)
 
 
-def requantize(x: np.ndarray, x_q: QParams, out_q: QParams, profile: str | KernelSet = "tflite_reference") -> np.ndarray:
+def requantize(x: np.ndarray, x_q: QParams, out_q: QParams, runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """QUANTIZE int8 -> int8 (a change of scale and zero point)."""
-    ks = get_kernel_set(profile)
-    return quant_ops.requantize_int8(x, x_q, out_q, ks.requantize)
+    return quant_ops.requantize_int8(x, x_q, out_q, runtime)
 
 
-def dequantize(x: np.ndarray, x_q: QParams, profile: str | KernelSet = "tflite_reference") -> np.ndarray:
+def dequantize(x: np.ndarray, x_q: QParams, runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """DEQUANTIZE int8 -> float32."""
-    return quant_ops.dequantize(x, x_q, get_kernel_set(profile).dequantize)
+    return quant_ops.dequantize(x, x_q, get_runtime(runtime).dequantize)

@@ -1,30 +1,25 @@
-"""The NPU stage: ``npu.tflite`` run op by op in numpy under a named profile, or in a real runtime.
+"""The NPU stage: ``npu.tflite`` run op by op in numpy under a named runtime, or in the real one.
 
-Profiles name the CPU kernels a result must equal bit for bit (``--npu-profile``):
-
-    tflite-ref      LiteRT reference kernels       (OpResolverType.BUILTIN_REF)
-    tflite-builtin  LiteRT optimized builtin ones  (BUILTIN_WITHOUT_DEFAULT_DELEGATES)
-    xnnpack         LiteRT default, XNNPACK        (AUTO)
-    ort-cpu         ONNX Runtime CPU on npu_qdq.onnx at ORT_GRAPH_OPTIMIZATION
+``--npu-profile`` names the runtime (``mnss_kit.ops.runtimes.RUNTIMES``) whose CPU kernels a
+result must equal bit for bit: ``tflite-ref``, ``tflite-builtin``, ``xnnpack`` (LiteRT with one
+of its op resolvers) or ``ort-cpu`` (ONNX Runtime CPU on npu_qdq.onnx at ORT_GRAPH_OPTIMIZATION).
 
 Backends (``--npu-backend``): ``numpy`` interprets the graph with the kernels of
-``emulate.kernels`` under the profile's kernel set (``emulate.profiles``);
-``litert`` and ``onnxruntime`` run the bundle's files in those runtimes.  All
-three take and return int8 NHWC arrays keyed by the tensor names of
-``npu.tflite`` (the QDQ ONNX file uses the same names).
+``emulate.kernels`` under the runtime's formulas; ``litert`` and ``onnxruntime`` run the
+bundle's files in those engines.  All three take and return int8 NHWC arrays keyed by the
+tensor names of ``npu.tflite`` (the QDQ ONNX file uses the same names).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import UserError
 from .interpreter import NumpyInterpreter
+from ..ops.runtimes import RUNTIMES, Runtime
 from .npu_graph import NpuGraph, read_npu_graph
-from .profiles import KERNEL_SETS
 
 BACKENDS = ("numpy", "litert", "onnxruntime")
 # ONNX Runtime fuses QDQ groups into QLinear kernels from this level on; pinned so results do not
@@ -32,34 +27,12 @@ BACKENDS = ("numpy", "litert", "onnxruntime")
 ORT_GRAPH_OPTIMIZATION = "ORT_ENABLE_EXTENDED"
 
 
-@dataclass(frozen=True)
-class NpuProfile:
-    """One ``--npu-profile``: the numpy kernel set and the runtime it must equal."""
-
-    name: str
-    kernel_set: str  # key of emulate.profiles.KERNEL_SETS
-    runtime: str  # "litert" or "onnxruntime"
-    litert_resolver: str | None  # OpResolverType member for the litert backend
-    description: str
-
-
-NPU_PROFILES = {
-    p.name: p
-    for p in (
-        NpuProfile("tflite-ref", "tflite_reference", "litert", "BUILTIN_REF", "LiteRT reference kernels"),
-        NpuProfile("tflite-builtin", "tflite_optimized", "litert", "BUILTIN_WITHOUT_DEFAULT_DELEGATES",
-                   "LiteRT optimized builtin kernels"),
-        NpuProfile("xnnpack", "xnnpack", "litert", "AUTO", "LiteRT default (XNNPACK delegate)"),
-        NpuProfile("ort-cpu", "onnxruntime", "onnxruntime", None, f"ONNX Runtime CPU, {ORT_GRAPH_OPTIMIZATION}"),
-    )
-}
-
-
-def get_npu_profile(name: str) -> NpuProfile:
+def get_npu_profile(name: str) -> Runtime:
+    """The runtime an ``--npu-profile`` names; ``UserError`` listing the names."""
     try:
-        return NPU_PROFILES[name]
+        return RUNTIMES[name]
     except KeyError:
-        raise UserError(f"unknown NPU profile '{name}' (one of: {', '.join(NPU_PROFILES)})") from None
+        raise UserError(f"unknown NPU profile '{name}' (one of: {', '.join(RUNTIMES)})") from None
 
 
 def check_inputs(graph: NpuGraph, inputs: dict[str, np.ndarray]) -> None:
@@ -74,14 +47,11 @@ def check_inputs(graph: NpuGraph, inputs: dict[str, np.ndarray]) -> None:
 
 
 class NumpyNpu:
-    """``npu.tflite`` interpreted in numpy under the kernel set of one profile."""
+    """``npu.tflite`` interpreted in numpy under the formulas of one runtime."""
 
-    def __init__(self, graph: NpuGraph, profile: NpuProfile):
-        if profile.kernel_set not in KERNEL_SETS:
-            raise UserError(f"the numpy backend has no kernel set for profile '{profile.name}' yet; "
-                            f"run it with --npu-backend {profile.runtime}")
+    def __init__(self, graph: NpuGraph, profile: Runtime):
         self.graph = graph
-        self.interpreter = NumpyInterpreter(graph, KERNEL_SETS[profile.kernel_set])
+        self.interpreter = NumpyInterpreter(graph, profile)
 
     def run(self, inputs: dict[str, np.ndarray], keep_all: bool = False) -> dict[str, np.ndarray]:
         """Graph inputs -> outputs (and, with ``keep_all``, every activation tensor) by name."""
@@ -92,9 +62,9 @@ class NumpyNpu:
 class LiteRtNpu:
     """``npu.tflite`` in a LiteRT interpreter with the profile's op resolver (one thread)."""
 
-    def __init__(self, graph: NpuGraph, model: bytes, profile: NpuProfile):
+    def __init__(self, graph: NpuGraph, model: bytes, profile: Runtime):
         if profile.litert_resolver is None:
-            raise UserError(f"profile '{profile.name}' is not a LiteRT kernel set; use --npu-backend {profile.runtime}")
+            raise UserError(f"profile '{profile.name}' is not a LiteRT kernel set; use --npu-backend {profile.engine}")
         import warnings
 
         from ai_edge_litert.interpreter import Interpreter, OpResolverType
@@ -176,11 +146,12 @@ def open_npu(tflite: str | Path | bytes, profile: str, backend: str = "numpy", o
     if backend == "numpy":
         return NumpyNpu(graph, p)
     if backend == "litert":
-        if p.runtime != "litert":
-            raise UserError(f"profile '{p.name}' runs in {p.runtime}, not LiteRT; use --npu-backend {p.runtime}")
+        if p.engine != "litert":
+            raise UserError(f"profile '{p.name}' runs in {p.engine}, not LiteRT; use --npu-backend {p.engine}")
         return LiteRtNpu(graph, _bytes(tflite, graph.source), p)
-    if p.runtime != "onnxruntime":
-        raise UserError(f"profile '{p.name}' is a LiteRT kernel set; use --npu-profile ort-cpu with --npu-backend onnxruntime")
+    if p.engine != "onnxruntime":
+        ort = ", ".join(n for n, r in RUNTIMES.items() if r.engine == "onnxruntime")
+        raise UserError(f"profile '{p.name}' is a LiteRT kernel set; use --npu-profile {ort} with --npu-backend onnxruntime")
     if onnx is None:
         raise UserError("the onnxruntime backend needs npu_qdq.onnx")
     source = "npu_qdq.onnx" if isinstance(onnx, bytes) else str(onnx)

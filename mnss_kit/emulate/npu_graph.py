@@ -20,24 +20,10 @@ import numpy as np
 
 from ..errors import UserError
 from ..export.npu_files import NpuTensor, parse_tflite, text, tflite_tensors
+from ..ops.npu_ops import NPU_OPS
 
 # operator -> number of activation (non-constant) inputs it takes; constants follow them
-SUPPORTED_OPS = {
-    "CONV_2D": 1,
-    "DEPTHWISE_CONV_2D": 1,
-    "ADD": 2,
-    "MUL": 2,
-    "CONCATENATION": None,  # any number
-    "LOGISTIC": 1,
-    "TANH": 1,
-    "AVERAGE_POOL_2D": 1,
-    "RESIZE_BILINEAR": 1,
-    "DEPTH_TO_SPACE": 1,
-    "SPACE_TO_DEPTH": 1,
-    "PAD": 1,
-    "QUANTIZE": 1,
-    "DEQUANTIZE": 1,
-}
+SUPPORTED_OPS = {name: op.activation_inputs for name, op in NPU_OPS.items()}
 ACTIVATIONS = {0: "none", 1: "relu", 2: "relu_n1_to_1", 3: "relu6"}
 EMULATED_TYPES = ("float32", "int32", "int64", "int16", "int8")
 

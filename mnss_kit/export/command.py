@@ -6,9 +6,9 @@ import argparse
 from pathlib import Path
 
 from ..model.families import placement_modes
+from ..ops.runtimes import DEFAULT_RUNTIME, runtime_names
 
 HELP = "write a deployment bundle: manifest.json, npu.tflite, npu_qdq.onnx, GPU shaders + weights, golden frames"
-PROFILES = ("tflite_reference", "tflite_optimized", "xnnpack")  # golden.PROFILE_RESOLVERS
 METHODS = ("minmax", "percentile", "entropy", "mse")  # quantize.command.METHODS
 DEFAULT_RESOLUTION = "1280x720"
 DEFAULT_GOLDEN_FRAMES = 3
@@ -28,8 +28,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", metavar="DIR",
                         help="dataset for calibration, and for golden frames when its LR size matches (default: render)")
     parser.add_argument("--method", choices=METHODS, default="minmax", help="activation range method when quantizing (default: minmax)")
-    parser.add_argument("--profile", choices=PROFILES, default="tflite_reference",
-                        help="numerics profile of the golden frames and the shaders' NPU-input rounding (default: tflite_reference)")
+    parser.add_argument("--profile", choices=runtime_names("litert"), default=DEFAULT_RUNTIME,
+                        help=f"runtime whose kernels make the golden frames and whose rounding the shaders' NPU input "
+                             f"takes (default: {DEFAULT_RUNTIME})")
     parser.add_argument("--golden-frames", type=int, default=DEFAULT_GOLDEN_FRAMES, metavar="N",
                         help=f"consecutive golden frames (default {DEFAULT_GOLDEN_FRAMES})")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing bundle directory")

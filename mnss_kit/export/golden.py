@@ -28,9 +28,8 @@ import numpy as np
 from ..gpu.interpret import ScheduleRunner
 from ..gpu.reference import ReferencePasses
 from ..ops.jitter import subpixel_index
+from ..ops.runtimes import get_runtime, runtime_names
 
-# numerics profile -> LiteRT op resolver running those kernels (quantize.runtime.RESOLVERS)
-PROFILE_RESOLVERS = {"tflite_reference": "reference", "tflite_optimized": "optimized", "xnnpack": "xnnpack"}
 # texture format (or boundary buffer) -> dtype of the golden array
 FORMAT_DTYPES = {"rgba16f": "float16", "rg16f": "float16", "r16f": "float16", "rgba32f": "float32", "rg32f": "float32",
                  "r32f": "float32", "rgba8": "uint8", "boundary": "int8"}
@@ -78,10 +77,9 @@ def run_golden(plan: dict, frames: list[dict], tflite: bytes, profile: str, scal
     """Run ``frames`` (numpy frames, first one treated as a reset) through the bundle ``plan``'s schedule."""
     from ..quantize.runtime import TfliteRunner
 
-    resolver = PROFILE_RESOLVERS.get(profile)
-    if resolver is None:
-        raise ValueError(f"golden frames need a LiteRT profile ({', '.join(PROFILE_RESOLVERS)}), got {profile!r}")
-    litert = TfliteRunner(tflite, resolver)
+    if get_runtime(profile).engine != "litert":
+        raise ValueError(f"golden frames need a LiteRT runtime ({', '.join(runtime_names('litert'))}), got {profile!r}")
+    litert = TfliteRunner(tflite, profile)
 
     def npu(step, feeds):
         (name, array), = feeds.items()

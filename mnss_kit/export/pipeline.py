@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
+from ..ops.runtimes import DEFAULT_RUNTIME
 from .npu_stage import NpuArtifacts, load_quantized_dir, quantize_at
 
 log = logging.getLogger(__name__)
@@ -32,7 +33,7 @@ class ExportRequest:
     placement: str = "default"
     data: Path | None = None
     method: str = "minmax"
-    profile: str = "tflite_reference"
+    profile: str = DEFAULT_RUNTIME  # an ops.runtimes LiteRT runtime
     golden_frames: int = 3
     overwrite: bool = False
     progress: bool = True

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..ops import quant
+from ..ops.runtimes import get_runtime
 
 # Storage formats of the frame inputs and of the state kept between frames.
 INPUT_FORMATS = {"color": "rgba16f", "depth": "r32f", "motion": "rg32f"}
@@ -136,10 +136,10 @@ ROUNDING_CODES = {"away_from_zero": 0, "half_even": 1, "half_up": 2}
 
 def quantize_uniforms(scale: float, zero_point: int, profile) -> dict:
     """The ``u_q_*`` uniforms of quant.glsl's int8 quantize for ``ops.quant.quantize`` under
-    ``profile`` (a name or a ``quant.Profile``): the float32 scale, its float32 reciprocal
-    (computed here, as the runtime computes it), which of the two the profile uses, the tie rule
-    and the zero point."""
-    p = quant.get_profile(profile)
+    ``profile`` (a runtime name or an ``ops.runtimes.Runtime``): the float32 scale, its float32
+    reciprocal (computed here, as the runtime computes it), which of the two the runtime uses,
+    the tie rule and the zero point."""
+    p = get_runtime(profile)
     s = np.float32(scale)
     return {
         "u_q_scale": float(s),

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..ops import quant
+from ..ops.runtimes import DEFAULT_RUNTIME, get_runtime
 from . import passes as P
 from .weights import Conv3x3
 
@@ -33,16 +33,16 @@ FRAME_KEYS = ("offset", "subpixel", "previous_offset", "previous_subpixel", "res
 @dataclass(frozen=True)
 class NpuBoundary:
     """The int8 tensors crossing to and from the NPU: ``real = scale * (q - zero_point)``, and the
-    numerics profile (``ops.quant.PROFILES``) whose QUANTIZE rounding the pack reproduces."""
+    runtime (``ops.runtimes.RUNTIMES``) whose QUANTIZE rounding the pack reproduces."""
 
     input_scale: float
     input_zero_point: int
     output_scale: float
     output_zero_point: int
-    profile: str = "tflite_reference"
+    profile: str = DEFAULT_RUNTIME
 
     def __post_init__(self):
-        quant.get_profile(self.profile)  # ValueError on an unknown name
+        get_runtime(self.profile)  # ValueError on an unknown name
 
 
 def pack_weights(blocks: list[tuple[str, Conv3x3]]) -> tuple[bytes, list[dict]]:

@@ -10,30 +10,20 @@ A convolution accumulates ``sum((x_q - x_zp) * w_q) + bias_q`` exactly in
 int32 and then *requantizes*: multiplies by ``s_in * s_w[c] / s_out``, rounds,
 adds the output zero point and clamps.  Runtimes do that last step
 differently, and the difference is visible (<= 1 LSB on a small fraction of
-values, compounding with depth).  Each runtime is a :class:`Profile`, plain
-data; every function here takes a profile and branches on its fields only.
+values, compounding with depth).  Each runtime is a ``mnss_kit.ops.runtimes.Runtime``,
+plain data naming its rounding rules; every function here takes a runtime (or its name)
+and branches on its fields only:
 
-``tflite_reference``  LiteRT reference kernels (BUILTIN_REF).  The real
-    multiplier becomes an int32 Q31 mantissa and a power-of-two shift
-    (:func:`quantize_multiplier`); the product is
+``q31`` (``tflite-ref``, ``tflite-builtin``)  The real multiplier becomes an int32 Q31
+    mantissa and a power-of-two shift (:func:`quantize_multiplier`); the product is
     ``rounding_divide_by_pot(saturating_rounding_doubling_high_mul(x << left, m), right)``:
-    two roundings ("double rounding"), the high multiply's ties toward
-    +infinity and the shift's ties away from zero.
-``tflite_optimized``  LiteRT optimized builtin kernels (BUILTIN_WITHOUT_DEFAULT_DELEGATES):
-    the same high multiply, but the final right shift rounds half up
-    (``(x + 2^(n-1)) >> n``).  These kernels are vector code: the formulas
-    here are those of the vector body; a tail of fewer values than one
-    vector (8 or 16) runs the reference formula.  ``mnss_kit.ops.quant_ops``
-    reproduces that split position by position.
-``xnnpack``  XNNPACK (LiteRT AUTO): float32 ``scale = s_in * s_w / s_out``,
+    two roundings, the high multiply's ties toward +infinity and the shift's ties away from
+    zero (``tflite-ref``) or half up, ``(x + 2^(n-1)) >> n`` (``tflite-builtin``).
+``float32`` (``xnnpack``, ``ort-cpu``)  float32 ``scale = s_in * s_w / s_out``,
     ``float32(acc) * scale`` rounded half to even, then zero point and clamp.
-``onnxruntime``  ONNX Runtime CPU (MLAS): float32 scale, round half to even
-    after the multiply; QuantizeLinear divides by the scale.
 
-ADD, QUANTIZE and the LOGISTIC/TANH tables have per-profile formulas too (see
-:func:`add`, :func:`quantize`, :func:`lookup_table`).  Every profile here was
-checked bit for bit against its runtime on x86-64 (ai-edge-litert 2.3.0,
-onnxruntime 1.31) by ``tests/quantize/test_profiles.py``.
+ADD has four methods (:func:`add`); QUANTIZE and the LOGISTIC/TANH tables read the
+runtime's rounding fields (:func:`quantize`, :func:`lookup_table`).
 
 All integer arithmetic is carried out in int64 numpy arrays so intermediate
 products never overflow; results are returned in the dtype the runtime stores.
@@ -41,111 +31,16 @@ products never overflow; results are returned in the dtype the runtime stores.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
+
+from .runtimes import Runtime, get_runtime
 
 INT8_MIN, INT8_MAX = -128, 127
 INT16_MIN, INT16_MAX = -32768, 32767
 INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
 WEIGHT_MAX = 127  # symmetric int8 weights use [-127, 127]
-
-ROUNDINGS = ("away_from_zero", "half_up", "half_even")
-
-
-@dataclasses.dataclass(frozen=True)
-class Profile:
-    """How one runtime rounds.  Data only; the functions below read its fields.
-
-    multiplier
-        ``"q31"``: integer mantissa + shift (TFLite ``QuantizeMultiplier``),
-        ``"float32"``: one float32 scale per channel.
-    shift_rounding
-        Rounding of the final right shift for ``"q31"`` (``away_from_zero`` =
-        gemmlowp ``RoundingDivideByPOT``; ``half_up`` = ``(x + 2^(n-1)) >> n``).
-    float_rounding
-        Rounding of ``float32(acc) * scale`` for ``"float32"``.
-    quantize_reciprocal
-        QUANTIZE (float -> int) computes ``x * (1 / scale)`` in float32 instead
-        of ``x / scale``.
-    quantize_rounding
-        Rounding of the QUANTIZE op.
-    table_rounding
-        Rounding used when a 256-entry table is built in float (LOGISTIC, TANH).
-    add
-        One of :data:`ADD_METHODS`, see :func:`add`.
-    """
-
-    name: str
-    multiplier: str
-    shift_rounding: str
-    float_rounding: str
-    quantize_reciprocal: bool
-    quantize_rounding: str
-    table_rounding: str
-    add: str
-    description: str
-
-
-ADD_METHODS = ("q31_double_round", "q31_single_round_inputs", "xnnpack_fixed_point", "float32_fma")
-
-PROFILES: dict[str, Profile] = {
-    "tflite_reference": Profile(
-        name="tflite_reference",
-        multiplier="q31",
-        shift_rounding="away_from_zero",
-        float_rounding="away_from_zero",
-        quantize_reciprocal=False,
-        quantize_rounding="away_from_zero",
-        table_rounding="away_from_zero",
-        add="q31_double_round",
-        description="LiteRT reference kernels (BUILTIN_REF)",
-    ),
-    "tflite_optimized": Profile(
-        name="tflite_optimized",
-        multiplier="q31",
-        shift_rounding="half_up",
-        float_rounding="away_from_zero",
-        quantize_reciprocal=True,
-        quantize_rounding="half_even",
-        table_rounding="away_from_zero",
-        add="q31_single_round_inputs",
-        description="LiteRT optimized builtin kernels (BUILTIN_WITHOUT_DEFAULT_DELEGATES), x86-64",
-    ),
-    "xnnpack": Profile(
-        name="xnnpack",
-        multiplier="float32",
-        shift_rounding="half_even",
-        float_rounding="half_even",
-        quantize_reciprocal=True,
-        quantize_rounding="half_even",
-        table_rounding="half_even",
-        add="xnnpack_fixed_point",
-        description="XNNPACK (LiteRT AUTO)",
-    ),
-    "onnxruntime": Profile(
-        name="onnxruntime",
-        multiplier="float32",
-        shift_rounding="half_even",
-        float_rounding="half_even",
-        quantize_reciprocal=False,
-        quantize_rounding="half_even",
-        table_rounding="half_even",
-        add="float32_fma",
-        description="ONNX Runtime CPU execution provider (MLAS, QDQ fused to QLinear ops), x86-64 with FMA",
-    ),
-}
-
-
-def get_profile(profile: str | Profile) -> Profile:
-    """A :class:`Profile` from its name (or the profile itself)."""
-    if isinstance(profile, Profile):
-        return profile
-    try:
-        return PROFILES[profile]
-    except KeyError:
-        raise ValueError(f"unknown numerics profile {profile!r} (one of: {', '.join(PROFILES)})") from None
 
 
 def qrange(dtype: str | np.dtype) -> tuple[int, int]:
@@ -256,16 +151,16 @@ def quantize_multiplier_smaller_than_one(real_multiplier: float) -> tuple[int, i
     return quantize_multiplier(real_multiplier)
 
 
-def effective_multiplier(input_scale: float, weight_scales: np.ndarray, output_scale: float, profile: Profile) -> np.ndarray:
+def effective_multiplier(input_scale: float, weight_scales: np.ndarray, output_scale: float, runtime: Runtime) -> np.ndarray:
     """Per-channel real multiplier ``s_in * s_w[c] / s_out`` as the runtime computes it.
 
-    ``q31`` profiles compute in float64 from the float32 scales (TFLite
-    ``PopulateConvolutionQuantizationParams``); ``float32`` profiles compute
+    ``q31`` runtimes compute in float64 from the float32 scales (TFLite
+    ``PopulateConvolutionQuantizationParams``); ``float32`` runtimes compute
     ``(s_in * s_w) / s_out`` with float32 rounding after each operation.
     Returns float64 (q31) or float32 (float32) array of shape ``(C,)``.
     """
     s_w = np.atleast_1d(np.asarray(weight_scales, dtype=np.float32))
-    if profile.multiplier == "q31":
+    if runtime.multiplier == "q31":
         return np.float64(np.float32(input_scale)) * s_w.astype(np.float64) / np.float64(np.float32(output_scale))
     product = (np.float32(input_scale) * s_w).astype(np.float32)
     return (product / np.float32(output_scale)).astype(np.float32)
@@ -327,13 +222,13 @@ def choose_qparams(rmin: float, rmax: float, dtype: str = "int8", symmetric: boo
     return scale, int(np.clip(zero_point, qmin, qmax))
 
 
-def quantize(x: np.ndarray, scale: float, zero_point: int, dtype: str = "int8", profile: str | Profile = "tflite_reference") -> np.ndarray:
+def quantize(x: np.ndarray, scale: float, zero_point: int, dtype: str = "int8", runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """The QUANTIZE op: float32 ``x`` -> ``clamp(round(x / scale) + zero_point)`` in ``dtype``.
 
-    The profile fixes how ``x / scale`` is computed (true float32 division or
+    The runtime fixes how ``x / scale`` is computed (true float32 division or
     multiplication by the float32 reciprocal) and how ties round.
     """
-    p = get_profile(profile)
+    p = get_runtime(runtime)
     x = np.asarray(x, dtype=np.float32)
     scale = np.float32(scale)
     if p.quantize_reciprocal:
@@ -455,7 +350,7 @@ def requantize(
     weight_scales: np.ndarray,
     output_scale: float,
     output_zero_point: int,
-    profile: str | Profile,
+    runtime: str | Runtime,
     dtype: str = "int8",
     clamp: tuple[int, int] | None = None,
 ) -> np.ndarray:
@@ -465,7 +360,7 @@ def requantize(
     is (C,) or scalar.  ``clamp`` are the fused-activation bounds in the output
     integer domain (default: the dtype's range).
     """
-    p = get_profile(profile)
+    p = get_runtime(runtime)
     acc = np.asarray(acc, dtype=np.int64)
     real = effective_multiplier(input_scale, weight_scales, output_scale, p)
     if p.multiplier == "q31":
@@ -509,20 +404,20 @@ def add(
     b: np.ndarray,
     b_params: tuple[float, int],
     out_params: tuple[float, int],
-    profile: str | Profile,
+    method: str,
     dtype: str = "int8",
     clamp: tuple[int, int] | None = None,
 ) -> np.ndarray:
     """Quantized ADD of two broadcastable integer tensors; params are ``(scale, zero_point)``.
 
-    The profile's ``add`` method:
+    ``method`` (one of ``runtimes.ADD_METHODS``):
 
-    ``q31_double_round`` (TFLite reference)
+    ``q31_double_round`` (LiteRT reference)
         Each input, offset by its zero point and shifted left by 20 bits
         (int8), is rescaled to ``2 * max(s_a, s_b)`` with a Q31 multiplier;
         the sum is rescaled to the output scale.  All three rescales use
         double rounding (ties away from zero).
-    ``q31_single_round_inputs`` (TFLite optimized, x86-64)
+    ``q31_single_round_inputs`` (the vector body of LiteRT's optimized kernel, x86-64)
         As above, but the two input rescales round once, half up:
         ``(x * m + 2^(30 - shift)) >> (31 - shift)``.
     ``xnnpack_fixed_point``
@@ -535,25 +430,24 @@ def add(
         ``rint(fma(a, r_a, fma(b, r_b, bias)))`` (round half to even), with
         ``a``, ``b`` the raw integers.
     """
-    p = get_profile(profile)
     (sa, za), (sb, zb), (so, zo) = a_params, b_params, out_params
     sa, sb, so = np.float32(sa), np.float32(sb), np.float32(so)
     a = np.asarray(a, dtype=np.int64)
     b = np.asarray(b, dtype=np.int64)
-    if p.add in ("q31_double_round", "q31_single_round_inputs"):
+    if method in ("q31_double_round", "q31_single_round_inputs"):
         left = ADD_LEFT_SHIFT[np.dtype(dtype).name]
         twice_max = 2.0 * max(float(sa), float(sb))
         ma, sha = quantize_multiplier_smaller_than_one(float(sa) / twice_max)
         mb, shb = quantize_multiplier_smaller_than_one(float(sb) / twice_max)
         mo, sho = quantize_multiplier_smaller_than_one(twice_max / ((1 << left) * float(so)))
-        if p.add == "q31_double_round":
+        if method == "q31_double_round":
             scaled_a = multiply_by_quantized_multiplier((a - za) << left, ma, sha, "away_from_zero")
             scaled_b = multiply_by_quantized_multiplier((b - zb) << left, mb, shb, "away_from_zero")
         else:
             scaled_a = multiply_by_quantized_multiplier_single_round((a - za) << left, ma, sha)
             scaled_b = multiply_by_quantized_multiplier_single_round((b - zb) << left, mb, shb)
         out = multiply_by_quantized_multiplier(scaled_a + scaled_b, mo, sho, "away_from_zero") + zo
-    elif p.add == "xnnpack_fixed_point":
+    elif method == "xnnpack_fixed_point":
         ra, rb = np.float32(sa / so), np.float32(sb / so)
         exponent = int(np.array(max(ra, rb), dtype=np.float32).view(np.uint32) >> 23) - 127
         shift = 20 - exponent
@@ -561,13 +455,13 @@ def add(
         mb = int(np.rint(np.float64(rb) * 2.0**shift))
         bias = (1 << (shift - 1)) - ma * za - mb * zb
         out = ((bias + a * ma + b * mb) >> shift) + zo
-    elif p.add == "float32_fma":
+    elif method == "float32_fma":
         ra, rb = np.float32(sa / so), np.float32(sb / so)
         bias = np.float32(np.float32(zo) - fma_f32(ra, np.float32(za), np.float32(rb * np.float32(zb))))
         inner = fma_f32(b.astype(np.float32), rb, bias)
-        out = round_float(fma_f32(a.astype(np.float32), ra, inner), p.float_rounding)
+        out = np.rint(fma_f32(a.astype(np.float32), ra, inner))  # round half to even
     else:
-        raise ValueError(f"unknown add method {p.add!r}")
+        raise ValueError(f"unknown add method {method!r}")
     lo, hi = clamp if clamp is not None else qrange(dtype)
     return np.clip(out, lo, hi).astype(dtype)
 
@@ -584,13 +478,14 @@ def fma_f32(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     return (a * b + c).astype(np.float32)
 
 
-def lookup_table(fn, in_params: tuple[float, int], out_params: tuple[float, int], profile: str | Profile) -> np.ndarray:
+def lookup_table(fn, in_params: tuple[float, int], out_params: tuple[float, int], runtime: str | Runtime) -> np.ndarray:
     """256-entry int8 table of ``fn`` (a float32 numpy ufunc-like) indexed by ``q + 128``.
 
     Built in float32 as the runtimes do: ``x = s_in * (q - z_in)``,
-    ``y = round(fn(x) * (1 / s_out)) + z_out``, clamped to int8.  Returns int8 (256,).
+    ``y = round(fn(x) * (1 / s_out)) + z_out`` (the runtime's ``table_rounding``), clamped to
+    int8.  Returns int8 (256,).
     """
-    p = get_profile(profile)
+    p = get_runtime(runtime)
     (s_in, z_in), (s_out, z_out) = in_params, out_params
     q = np.arange(INT8_MIN, INT8_MAX + 1, dtype=np.int64)
     x = (np.float32(s_in) * (q - z_in).astype(np.float32)).astype(np.float32)

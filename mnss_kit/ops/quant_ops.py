@@ -1,21 +1,19 @@
 """Per-runtime integer formulas of the int8 ops beyond convolution (reference definitions).
 
-``mnss_kit.ops.quant`` defines requantization, ADD, QUANTIZE and the tables once per runtime
-profile; this module names every formula a runtime kernel uses for an op, so that a kernel set
-(``mnss_kit.emulate.profiles``) is plain data: one formula name per op.  :data:`FORMULAS` lists
-the names.  A name of a ``quant.PROFILES`` entry means "the ``ops.quant`` definition under that
-profile" (ADD, QUANTIZE): each formula lives in one place.  The other names are defined here
-and state what the runtime does, as found in LiteRT's, XNNPACK's and ONNX Runtime's sources and
-checked bit for bit against ai-edge-litert 2.3.0 and onnxruntime 1.31 on x86-64
-(tests/emulate).
+``mnss_kit.ops.quant`` defines requantization, the ADD methods, QUANTIZE and the tables once;
+this module defines every other formula a runtime kernel uses for an op, so that a runtime
+(``mnss_kit.ops.runtimes.RUNTIMES``) is plain data: one formula name per op
+(``runtimes.FORMULAS``).  Each formula states what the runtime does, as found in LiteRT's,
+XNNPACK's and ONNX Runtime's sources and checked bit for bit against ai-edge-litert 2.3.0 and
+onnxruntime 1.31 on x86-64 (tests/emulate).
 
 Two things a reader would not guess:
 
-* LiteRT's "optimized" builtin kernels on x86 are its ARM NEON code compiled through an SSE
-  emulation of the NEON intrinsics.  Vector loops process 16 (ADD, int8 QUANTIZE) or 8 (float
-  QUANTIZE, DEQUANTIZE) values at a time with the vector rounding, and the leftover tail runs
-  the scalar reference formula.  Where a value sits in the tensor therefore decides its
-  rounding (:func:`vector_width`).
+* LiteRT's optimized builtin kernels (``tflite-builtin``) on x86 are its ARM NEON code compiled
+  through an SSE emulation of the NEON intrinsics.  Vector loops process 16 (ADD, int8
+  QUANTIZE) or 8 (float QUANTIZE, DEQUANTIZE) values at a time with the vector rounding, and
+  the leftover tail runs the scalar reference formula.  Where a value sits in the tensor
+  therefore decides its rounding (:func:`vector_width`).
 * ONNX Runtime on x86-64 runs a QDQ AveragePool as a float kernel (dequantize, float32 window
   sum in order, divide, quantize) and a QDQ Resize as dequantize, float32 bilinear resize,
   quantize; both are reproduced here operation by operation.
@@ -30,29 +28,14 @@ from typing import Callable
 import numpy as np
 
 from . import quant
+from .runtimes import Runtime, check_formula, get_runtime
 
 INT8_MIN, INT8_MAX = quant.INT8_MIN, quant.INT8_MAX
 QParams = tuple[float, int]  # (scale, zero_point)
 
-PROFILE_FORMULAS = tuple(quant.PROFILES)  # the ops.quant definition under that profile
-FORMULAS: dict[str, tuple[str, ...]] = {
-    "ADD": PROFILE_FORMULAS + ("tflite_neon16",),
-    "MUL": ("tflite", "xnnpack", "onnxruntime"),
-    "AVERAGE_POOL_2D": ("tflite", "onnxruntime"),
-    "RESIZE_BILINEAR": ("tflite", "xnnpack_q11", "onnxruntime"),
-    "QUANTIZE": PROFILE_FORMULAS + ("tflite_neon8",),
-    "DEQUANTIZE": ("exact", "tflite_neon8"),
-    "REQUANTIZE": ("tflite_reference", "tflite_optimized", "tflite_neon16", "xnnpack_q8", "onnxruntime"),
-}
 # values per vector iteration of the formulas whose rounding depends on the position in the tensor
 VECTOR_WIDTHS = {("ADD", "tflite_neon16"): 16, ("QUANTIZE", "tflite_neon8"): 8, ("DEQUANTIZE", "tflite_neon8"): 8,
                  ("REQUANTIZE", "tflite_neon16"): 16}
-
-
-def check_formula(op: str, formula: str) -> None:
-    """``ValueError`` unless ``formula`` is one of ``FORMULAS[op]``."""
-    if formula not in FORMULAS[op]:
-        raise ValueError(f"unknown {op} formula {formula!r} (one of: {', '.join(FORMULAS[op])})")
 
 
 def vector_width(op: str, formula: str) -> int:
@@ -82,21 +65,21 @@ def add(a: np.ndarray, a_q: QParams, b: np.ndarray, b_q: QParams, out_q: QParams
         clamp: tuple[int, int] | None = None) -> np.ndarray:
     """Quantized ADD of two int8 tensors of one shape -> int8.
 
-    A profile name: ``quant.add`` under that profile.  ``tflite_neon16``: LiteRT's optimized
-    kernel; the flattened tensor is cut into blocks of 16, full blocks take the vector formula
-    (``quant.add`` under ``tflite_optimized``: the inputs rescaled with one rounding; NEON's
-    truncating pre-shift loses no bits while the smaller input scale is at least 2^-20 of the
-    larger) and the tail the reference formula.
+    An ADD method of ``quant.add``, or ``tflite_neon16``: LiteRT's optimized kernel; the
+    flattened tensor is cut into blocks of 16, full blocks take the vector formula
+    (``q31_single_round_inputs``: the inputs rescaled with one rounding; NEON's truncating
+    pre-shift loses no bits while the smaller input scale is at least 2^-20 of the larger) and
+    the tail the reference one (``q31_double_round``).
     """
     check_formula("ADD", formula)
-    if formula in PROFILE_FORMULAS:
+    if formula != "tflite_neon16":
         return quant.add(a, a_q, b, b_q, out_q, formula, clamp=clamp)
     a, b = np.broadcast_arrays(np.asarray(a), np.asarray(b))
 
-    def under(profile):
-        return lambda x, y: quant.add(x, a_q, y, b_q, out_q, profile, clamp=clamp)
+    def by(method):
+        return lambda x, y: quant.add(x, a_q, y, b_q, out_q, method, clamp=clamp)
 
-    return _by_position(vector_width("ADD", formula), under("tflite_optimized"), under("tflite_reference"), a, b)
+    return _by_position(vector_width("ADD", formula), by("q31_single_round_inputs"), by("q31_double_round"), a, b)
 
 
 # ---------------------------------------------------------------------------
@@ -131,23 +114,23 @@ def mul(a: np.ndarray, a_q: QParams, b: np.ndarray, b_q: QParams, out_q: QParams
 
 
 # ---------------------------------------------------------------------------
-# LOGISTIC, TANH: every kernel set builds a 256-entry table in float32
+# LOGISTIC, TANH: every runtime builds a 256-entry table in float32
 
 
-def logistic(x: np.ndarray, x_q: QParams, profile: str) -> np.ndarray:
+def logistic(x: np.ndarray, x_q: QParams, runtime: str | Runtime) -> np.ndarray:
     """int8 LOGISTIC through ``quant.lookup_table`` of ``quant.sigmoid_f32``; output params (1/256, -128)."""
     with np.errstate(over="ignore"):  # exp overflow gives 1/inf = 0, the right limit
-        table = quant.lookup_table(quant.sigmoid_f32, x_q, quant.LOGISTIC_OUTPUT, profile)
+        table = quant.lookup_table(quant.sigmoid_f32, x_q, quant.LOGISTIC_OUTPUT, runtime)
     return quant.apply_table(x, table)
 
 
-def tanh(x: np.ndarray, x_q: QParams, profile: str) -> np.ndarray:
+def tanh(x: np.ndarray, x_q: QParams, runtime: str | Runtime) -> np.ndarray:
     """int8 TANH through ``quant.lookup_table`` of ``quant.tanh_f32``; output params (1/128, 0).
 
     ONNX Runtime keeps a QDQ Tanh as float (dequantize, ``tanh``, quantize), which gives the
     table's values wherever its ``tanh`` and numpy's agree to the last bit.
     """
-    return quant.apply_table(x, quant.lookup_table(quant.tanh_f32, x_q, quant.TANH_OUTPUT, profile))
+    return quant.apply_table(x, quant.lookup_table(quant.tanh_f32, x_q, quant.TANH_OUTPUT, runtime))
 
 
 # ---------------------------------------------------------------------------
@@ -157,7 +140,7 @@ def tanh(x: np.ndarray, x_q: QParams, profile: str) -> np.ndarray:
 def average_pool_divide(total: np.ndarray, count: np.ndarray, formula: str) -> np.ndarray:
     """Window sum of raw int8 values / number of valid inputs (int64 arrays, broadcastable) -> int64.
 
-    ``tflite`` (every LiteRT kernel set; XNNPACK does not take int8 AVERAGE_POOL_2D):
+    ``tflite`` (every LiteRT runtime; XNNPACK does not take int8 AVERAGE_POOL_2D):
     ``quant.average_pool_round``, ties away from zero.  The ``onnxruntime`` formula does not
     start from the integer sum: see :func:`average_pool_float`.
     """
@@ -289,7 +272,7 @@ def _resize_onnxruntime(x: np.ndarray, out_hw: tuple[int, int], q: QParams) -> n
     total = (term(dx2, dy2, y1, x1) + term(dx1, dy2, y1, x2)).astype(np.float32)
     total = (total + term(dx2, dy1, y2, x1)).astype(np.float32)
     total = (total + term(dx1, dy1, y2, x2)).astype(np.float32)
-    return quant.quantize(total, q[0], q[1], "int8", "onnxruntime")
+    return quant.quantize(total, q[0], q[1], "int8", "ort-cpu")
 
 
 def resize_bilinear(x: np.ndarray, out_hw: tuple[int, int], half_pixel_centers: bool, formula: str,
@@ -314,27 +297,27 @@ def resize_bilinear(x: np.ndarray, out_hw: tuple[int, int], half_pixel_centers: 
 # QUANTIZE float32 -> int8, DEQUANTIZE int8 -> float32
 
 
-def quantize(x: np.ndarray, out_q: QParams, formula: str) -> np.ndarray:
-    """QUANTIZE float32 -> int8.
+def quantize(x: np.ndarray, out_q: QParams, runtime: str | Runtime) -> np.ndarray:
+    """QUANTIZE float32 -> int8 by the runtime's ``quantize`` formula.
 
-    A profile name: ``quant.quantize`` under that profile.  ``tflite_neon8``: LiteRT's optimized
-    kernel; full blocks of 8 (flattened) take the vector formula (``quant.quantize`` under
-    ``tflite_optimized``: multiply by the float32 reciprocal, ties to even), the tail divides in
-    float64 and rounds half away from zero.
+    ``scalar``: ``quant.quantize`` with the runtime's rounding fields.  ``tflite_neon8``: LiteRT's
+    optimized kernel; full blocks of 8 (flattened) take the vector formula (``quant.quantize``
+    with the runtime's fields: multiply by the float32 reciprocal, ties to even), the tail
+    divides in float64 and rounds half away from zero.
     """
-    check_formula("QUANTIZE", formula)
+    rt = get_runtime(runtime)
     scale, zp = out_q
-    if formula in PROFILE_FORMULAS:
-        return quant.quantize(x, scale, zp, "int8", formula)
+    if rt.quantize == "scalar":
+        return quant.quantize(x, scale, zp, "int8", rt)
 
     def body(v):
-        return quant.quantize(v, scale, zp, "int8", "tflite_optimized")
+        return quant.quantize(v, scale, zp, "int8", rt)
 
     def tail(v):
         q = quant.round_float(v.astype(np.float64) / np.float64(np.float32(scale)), "away_from_zero") + zp
         return _clamp_int8(q, None)
 
-    return _by_position(vector_width("QUANTIZE", formula), body, tail, np.asarray(x, dtype=np.float32))
+    return _by_position(vector_width("QUANTIZE", rt.quantize), body, tail, np.asarray(x, dtype=np.float32))
 
 
 def dequantize(x: np.ndarray, x_q: QParams, formula: str) -> np.ndarray:
@@ -366,33 +349,39 @@ def dequantize(x: np.ndarray, x_q: QParams, formula: str) -> np.ndarray:
 XNNPACK_CONVERT_RANGE = (2.0**-8, 2.0**7)  # s_in / s_out ratios XNNPACK accepts for an int8 -> int8 QUANTIZE
 
 
-def requantize_int8(x: np.ndarray, x_q: QParams, out_q: QParams, formula: str) -> np.ndarray:
-    """QUANTIZE int8 -> int8 (new scale and zero point).
+def requantize_int8(x: np.ndarray, x_q: QParams, out_q: QParams, runtime: str | Runtime) -> np.ndarray:
+    """QUANTIZE int8 -> int8 (new scale and zero point) by the runtime's ``requantize`` formula.
 
-    ``tflite_reference`` / ``tflite_optimized``: ``quant.requantize`` of ``x - z_in`` under that
-    profile with a unit weight scale (Q31 multiplier of ``s_in / s_out`` from float64 of the
-    float32 scales; the final shift rounds ties away from zero or up).  ``tflite_neon16``
-    (LiteRT optimized): full blocks of 16 (flattened) ``tflite_optimized``, the tail
-    ``tflite_reference``.  ``xnnpack_q8``: XNNPACK ``convert``: ``m = rint(256 * float32(s_in /
-    s_out))``, ``((x - z_in) * m + 128) >> 8``, plus ``z_out``; outside ``XNNPACK_CONVERT_RANGE``
-    XNNPACK declines the op and LiteRT's optimized kernel runs it (``tflite_neon16``).
-    ``onnxruntime`` (a DequantizeLinear -> QuantizeLinear pair): ``quant.quantize`` under
-    ``onnxruntime`` of ``quant.dequantize``.
+    ``scalar``: ``quant.requantize`` of ``x - z_in`` under the runtime with a unit weight scale
+    (Q31 multiplier of ``s_in / s_out`` from float64 of the float32 scales; the final shift
+    rounds ties away from zero or up).  ``tflite_neon16`` (LiteRT optimized): full blocks of 16
+    (flattened) ``scalar`` under ``tflite-builtin``, the tail under ``tflite-ref``.
+    ``xnnpack_q8``: XNNPACK ``convert``: ``m = rint(256 * float32(s_in / s_out))``,
+    ``((x - z_in) * m + 128) >> 8``, plus ``z_out``; outside ``XNNPACK_CONVERT_RANGE`` XNNPACK
+    declines the op and LiteRT's optimized kernel runs it (``tflite_neon16``).  ``onnxruntime``
+    (a DequantizeLinear -> QuantizeLinear pair): ``quant.quantize`` under ``ort-cpu`` of
+    ``quant.dequantize``.
     """
-    check_formula("REQUANTIZE", formula)
+    formula = get_runtime(runtime).requantize
     (si, zi), (so, zo) = x_q, out_q
     ratio = np.float32(np.float32(si) / np.float32(so))
     if formula == "xnnpack_q8" and not XNNPACK_CONVERT_RANGE[0] <= ratio <= XNNPACK_CONVERT_RANGE[1]:
         formula = "tflite_neon16"
     if formula == "tflite_neon16":
-        def under(name):
-            return lambda v: requantize_int8(v, x_q, out_q, name)
+        def scalar(name):
+            return lambda v: _requantize_scalar(v, x_q, out_q, name)
 
-        return _by_position(vector_width("REQUANTIZE", formula), under("tflite_optimized"), under("tflite_reference"), x)
+        return _by_position(vector_width("REQUANTIZE", formula), scalar("tflite-builtin"), scalar("tflite-ref"), x)
     if formula == "onnxruntime":
-        return quant.quantize(quant.dequantize(x, si, zi), so, zo, "int8", "onnxruntime")
-    d = np.asarray(x, dtype=np.int64) - zi
+        return quant.quantize(quant.dequantize(x, si, zi), so, zo, "int8", "ort-cpu")
     if formula == "xnnpack_q8":
         m = int(np.rint(np.float32(256.0) * ratio))
+        d = np.asarray(x, dtype=np.int64) - zi
         return _clamp_int8(((d * m + 128) >> 8) + zo, None)
-    return quant.requantize(d, si, np.float32(1.0), so, zo, formula)
+    return _requantize_scalar(x, x_q, out_q, runtime)
+
+
+def _requantize_scalar(x: np.ndarray, x_q: QParams, out_q: QParams, runtime: str | Runtime) -> np.ndarray:
+    """int8 -> int8 as a unit-weight ``quant.requantize`` under the runtime's CONV_2D rule."""
+    d = np.asarray(x, dtype=np.int64) - x_q[1]
+    return quant.requantize(d, x_q[0], np.float32(1.0), out_q[0], out_q[1], runtime)

@@ -106,8 +106,8 @@ def evaluation_sentence(info: dict) -> str:
     frames = "all frames" if info["max_frames_per_sequence"] is None else f"at most {info['max_frames_per_sequence']} frames"
     where = "held-out data" if info["held_out"] else "the calibration data (not held out: pass --eval-data for a held-out set)"
     return (f"{info['evaluator']}; {info['sequences']} sequences of {info['data']} ({where}), {frames} per sequence, "
-            f"{info['frames']} frames in all.  GPU part: {info['gpu_part']}.  int8 NPU stage: npu.tflite in {info['int8_runtime']} "
-            f"(numerics profile {info['int8_numerics_profile']}).  delta = int8 - fp32.")
+            f"{info['frames']} frames in all.  GPU part: {info['gpu_part']}.  int8 NPU stage: npu.tflite in {info['int8_runtime']}.  "
+            f"delta = int8 - fp32.")
 
 
 def agreement_sentence(agree: dict) -> str:

@@ -12,9 +12,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..ops.runtimes import DEFAULT_RUNTIME, runtime_names
+
 HELP = "quantize the NPU stage to int8: npu.tflite, npu_qdq.onnx, encodings.json, report (calibrated on recurrent runs)"
 METHODS = ("minmax", "percentile", "entropy", "mse")
-EVAL_RUNTIMES = ("reference", "optimized", "xnnpack")  # LiteRT kernel sets (mnss_kit.quantize.runtime.RESOLVERS)
 DEFAULT_DATA_CONFIG = "tiny"
 QUALITY_METRICS = ("psnr", "ssim", "if_ssim")
 
@@ -32,8 +33,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="held-out dataset for the fp32-vs-int8 comparison in the report (default: the calibration data)")
     parser.add_argument("--pipeline-frames", type=int, default=12, metavar="N",
                         help="frames per sequence for the fp32-vs-int8 comparison (default: 12; 0: skip)")
-    parser.add_argument("--eval-runtime", choices=EVAL_RUNTIMES, default="reference",
-                        help="LiteRT kernels that run the int8 stage in that comparison (default: reference)")
+    parser.add_argument("--eval-runtime", choices=runtime_names("litert"), default=DEFAULT_RUNTIME,
+                        help=f"LiteRT kernels that run the int8 stage in that comparison (default: {DEFAULT_RUNTIME})")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output directory")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
@@ -186,22 +187,22 @@ def calibration_samples(model, sequences, count: int, progress: bool = False) ->
     return samples
 
 
-def int8_model(model, art, resolver: str = "reference"):
-    """A copy of the float ``model`` whose NPU stage runs ``art.tflite`` in LiteRT (``resolver`` kernels)."""
+def int8_model(model, art, runtime: str = DEFAULT_RUNTIME):
+    """A copy of the float ``model`` whose NPU stage runs ``art.tflite`` in LiteRT (a LiteRT ``runtime``'s kernels)."""
     import copy
 
     from ..model.families import npu_stage_name
     from .runtime import QuantizedStage, swap_stage
 
     quantized = copy.deepcopy(model).eval()
-    swap_stage(quantized, npu_stage_name(model), QuantizedStage.build(art.graph, art.tflite, backend="tflite", resolver=resolver))
+    swap_stage(quantized, npu_stage_name(model), QuantizedStage.build(art.graph, art.tflite, runtime))
     return quantized
 
 
 def evaluate_int8(model, variants: dict, data_dir: Path, max_frames: int | None, progress: bool = True) -> dict:
     """``mnss_kit.eval.run.evaluate`` of ``fp32`` (the float model) and of one method per int8 variant.
 
-    ``variants``: ``{name: (QuantizedArtifacts, LiteRT resolver)}``.  Every
+    ``variants``: ``{name: (QuantizedArtifacts, LiteRT runtime name)}``.  Every
     method sees the same frames in one run, so the per-frame numbers are
     paired.  ``max_frames``: frames per sequence (None: all).
     """
@@ -209,15 +210,15 @@ def evaluate_int8(model, variants: dict, data_dir: Path, max_frames: int | None,
     from ..eval.run import evaluate
 
     methods = {"fp32": model_method(model)}
-    for name, (art, resolver) in variants.items():
-        methods[name] = model_method(int8_model(model, art, resolver))
+    for name, (art, runtime) in variants.items():
+        methods[name] = model_method(int8_model(model, art, runtime))
     return evaluate(methods, data_dir, scale=model.scale, max_frames=max_frames, progress=progress)
 
 
-def int8_report(model, art, data_dir: Path, max_frames: int, resolver: str, held_out: bool, data_label: str, progress: bool) -> dict:
+def int8_report(model, art, data_dir: Path, max_frames: int, runtime: str, held_out: bool, data_label: str, progress: bool) -> dict:
     """report.json's fp32-vs-int8 part: ``fp32``, ``int8``, ``delta``, ``sequences`` and ``evaluation``."""
-    result = evaluate_int8(model, {"int8": (art, resolver)}, data_dir, max_frames, progress=progress)
-    return {**fp32_vs_int8(result, "int8"), "evaluation": evaluation_info(result, resolver, held_out, data_label)}
+    result = evaluate_int8(model, {"int8": (art, runtime)}, data_dir, max_frames, progress=progress)
+    return {**fp32_vs_int8(result, "int8"), "evaluation": evaluation_info(result, runtime, held_out, data_label)}
 
 
 def fp32_vs_int8(result: dict, int8: str = "int8", fp32: str = "fp32") -> dict:
@@ -238,10 +239,8 @@ def fp32_vs_int8(result: dict, int8: str = "int8", fp32: str = "fp32") -> dict:
     return {"fp32": a, "int8": b, "delta": delta(a, b), "sequences": per_sequence}
 
 
-def evaluation_info(result: dict, resolver: str, held_out: bool, data_label: str) -> dict:
+def evaluation_info(result: dict, runtime: str, held_out: bool, data_label: str) -> dict:
     """How the fp32-vs-int8 numbers were made (for report.json)."""
-    from .runtime import RUNTIME_PROFILES
-
     return {
         "data": data_label,
         "held_out": held_out,
@@ -250,7 +249,6 @@ def evaluation_info(result: dict, resolver: str, held_out: bool, data_label: str
         "max_frames_per_sequence": result["settings"]["max_frames"],
         "evaluator": "mnss_kit.eval.run.evaluate (as mnss-kit eval): recurrent, history from each method's own output",
         "gpu_part": "PyTorch float32 (the model's GPU stages, identical in both methods)",
-        "int8_runtime": f"litert_{resolver}",
-        "int8_numerics_profile": RUNTIME_PROFILES[resolver],
+        "int8_runtime": runtime,
         "delta": "int8 - fp32",
     }

@@ -1,8 +1,9 @@
 """Run the written NPU stage (LiteRT or ONNX Runtime) and swap it into a float PyTorch model.
 
-Runners take and return NHWC arrays keyed by graph tensor name, so results
-from both runtimes compare directly; :class:`QuantizedStage` wraps one as an
-``nn.Module`` with the float NCHW interface of the module it replaces.
+Runtimes are named as in ``mnss_kit.ops.runtimes.RUNTIMES``; :func:`open_runner` starts one.
+Runners take and return NHWC arrays keyed by graph tensor name, so results from every runtime
+compare directly; :class:`QuantizedStage` wraps one as an ``nn.Module`` with the float NCHW
+interface of the module it replaces.
 """
 
 from __future__ import annotations
@@ -10,20 +11,17 @@ from __future__ import annotations
 import numpy as np
 
 from ..ops import quant as Q
+from ..ops.runtimes import DEFAULT_RUNTIME, get_runtime
 from .graph import Graph
 
-RESOLVERS = ("reference", "optimized", "xnnpack")
-# numerics profile that reproduces each runtime bit for bit
-RUNTIME_PROFILES = {"reference": "tflite_reference", "optimized": "tflite_optimized", "xnnpack": "xnnpack", "onnxruntime": "onnxruntime"}
 
-
-def quantize_inputs(graph: Graph, inputs_nchw: list[np.ndarray], profile: str = "tflite_reference") -> list[np.ndarray]:
-    """Float NCHW inputs -> integer NHWC arrays with each graph input's parameters."""
+def quantize_inputs(graph: Graph, inputs_nchw: list[np.ndarray], runtime: str = DEFAULT_RUNTIME) -> list[np.ndarray]:
+    """Float NCHW inputs -> integer NHWC arrays with each graph input's parameters, rounded as ``runtime`` rounds."""
     out = []
     for name, x in zip(graph.inputs, inputs_nchw, strict=True):
         t = graph.tensors[name]
         nhwc = np.ascontiguousarray(np.transpose(np.asarray(x, np.float32), (0, 2, 3, 1)))
-        out.append(Q.quantize(nhwc, t.scale, t.zero_point, t.dtype, profile))
+        out.append(Q.quantize(nhwc, t.scale, t.zero_point, t.dtype, runtime))
     return out
 
 
@@ -33,18 +31,17 @@ def dequantize_tensor(graph: Graph, name: str, q: np.ndarray) -> np.ndarray:
 
 
 class TfliteRunner:
-    """LiteRT interpreter on ``npu.tflite`` bytes.  ``resolver``: reference, optimized or xnnpack."""
+    """LiteRT interpreter on ``npu.tflite`` bytes with the op resolver of a LiteRT ``runtime`` (e.g. ``tflite-ref``)."""
 
-    def __init__(self, model: bytes, resolver: str = "reference", preserve_all: bool = False, num_threads: int = 1):
+    def __init__(self, model: bytes, runtime: str = DEFAULT_RUNTIME, preserve_all: bool = False, num_threads: int = 1):
         from ai_edge_litert.interpreter import Interpreter, OpResolverType
 
-        kinds = {
-            "reference": OpResolverType.BUILTIN_REF,
-            "optimized": OpResolverType.BUILTIN_WITHOUT_DEFAULT_DELEGATES,
-            "xnnpack": OpResolverType.AUTO,
-        }
+        resolver = get_runtime(runtime).litert_resolver
+        if resolver is None:
+            raise ValueError(f"runtime {runtime!r} is not run by LiteRT")
         self.interpreter = Interpreter(
-            model_content=model, experimental_op_resolver_type=kinds[resolver], experimental_preserve_all_tensors=preserve_all, num_threads=num_threads
+            model_content=model, experimental_op_resolver_type=getattr(OpResolverType, resolver),
+            experimental_preserve_all_tensors=preserve_all, num_threads=num_threads
         )
         self.interpreter.allocate_tensors()
         self.details = {d["name"]: d["index"] for d in self.interpreter.get_tensor_details()}
@@ -83,6 +80,13 @@ class OnnxRunner:
         return {_graph_name(n): np.transpose(r, (0, 2, 3, 1)) for n, r in zip(self.output_names, results)}
 
 
+def open_runner(runtime: str, tflite: bytes, onnx, **options):
+    """A runner of ``runtime``: LiteRT on the ``tflite`` bytes or ONNX Runtime on the ``onnx`` model."""
+    if get_runtime(runtime).engine == "onnxruntime":
+        return OnnxRunner(onnx, **options)
+    return TfliteRunner(tflite, runtime, **options)
+
+
 def _graph_name(onnx_name: str) -> str:
     return onnx_name[: -len(".out")] if onnx_name.endswith(".out") else onnx_name
 
@@ -90,21 +94,16 @@ def _graph_name(onnx_name: str) -> str:
 class QuantizedStage:
     """Factory for an ``nn.Module`` that runs the quantized graph in place of a float module.
 
-    ``backend``: ``tflite`` (with ``resolver``) or ``onnx``.  Inputs are
-    quantized with the numerics profile of the chosen runtime, outputs
-    dequantized; the module is float NCHW in and out, like the original.
+    ``model``: ``npu.tflite`` bytes for a LiteRT ``runtime``, the QDQ ONNX model for ``ort-cpu``.
+    Inputs are quantized with the rounding of that runtime, outputs dequantized; the module is
+    float NCHW in and out, like the original.
     """
 
     @staticmethod
-    def build(graph: Graph, model, backend: str = "tflite", resolver: str = "reference"):
+    def build(graph: Graph, model, runtime: str = DEFAULT_RUNTIME):
         import torch
 
-        if backend == "tflite":
-            runner, profile = TfliteRunner(model, resolver), RUNTIME_PROFILES[resolver]
-        elif backend == "onnx":
-            runner, profile = OnnxRunner(model), RUNTIME_PROFILES["onnxruntime"]
-        else:
-            raise ValueError(f"unknown backend {backend!r}")
+        runner = open_runner(runtime, model, model)
 
         class _Stage(torch.nn.Module):
             placement = "npu"
@@ -117,7 +116,7 @@ class QuantizedStage:
 
             def run_one(self, inputs):
                 arrays = [t.detach().cpu().float().numpy() for t in inputs]
-                out = runner.run(quantize_inputs(graph, arrays, profile))
+                out = runner.run(quantize_inputs(graph, arrays, runtime))
                 return [torch.from_numpy(np.ascontiguousarray(np.transpose(dequantize_tensor(graph, n, out[n]), (0, 3, 1, 2)))) for n in graph.outputs]
 
         return _Stage()

@@ -50,7 +50,7 @@ def tensor_sqnr(float_graph: Graph, quantized: Graph, model: bytes, samples) -> 
     from .runtime import TfliteRunner, dequantize_tensor, quantize_inputs
 
     names = [n for n in quantized.activations() if n in float_graph.tensors]
-    runner = TfliteRunner(model, "reference", preserve_all=True)
+    runner = TfliteRunner(model, "tflite-ref", preserve_all=True)
     signal = dict.fromkeys(names, 0.0)
     noise = dict.fromkeys(names, 0.0)
     outputs = []

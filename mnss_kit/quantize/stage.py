@@ -26,7 +26,8 @@ from .calibrate import calibrate
 from .graph import Graph, op_graph, prefix_graph
 from .onnx_writer import to_onnx
 from .params import quantize_graph
-from .runtime import RESOLVERS, RUNTIME_PROFILES, OnnxRunner, TfliteRunner, dequantize_tensor, quantize_inputs
+from ..ops.runtimes import RUNTIMES
+from .runtime import OnnxRunner, TfliteRunner, dequantize_tensor, open_runner, quantize_inputs
 from .sensitivity import choose_int16, only_layer_psnr, sqnr_db, tensor_sqnr
 from .tflite_writer import to_tflite
 from .trace import trace
@@ -111,10 +112,9 @@ def output_quality(graph: Graph, tflite: bytes, onnx_bytes: bytes, samples, floa
     out = graph.outputs[0]
     ref = np.concatenate([f[out] for f in float_outputs])
     result = {}
-    runners = {f"litert_{r}": (TfliteRunner(tflite, r), RUNTIME_PROFILES[r]) for r in RESOLVERS}
-    runners["onnxruntime"] = (OnnxRunner(onnx_bytes), RUNTIME_PROFILES["onnxruntime"])
-    for name, (runner, profile) in runners.items():
-        got = np.concatenate([dequantize_tensor(graph, out, runner.run(quantize_inputs(graph, list(s), profile))[out]) for s in samples])
+    for name in RUNTIMES:
+        runner = open_runner(name, tflite, onnx_bytes)
+        got = np.concatenate([dequantize_tensor(graph, out, runner.run(quantize_inputs(graph, list(s), name))[out]) for s in samples])
         result[name] = {"psnr_db": psnr(got, ref), "sqnr_db": sqnr_db(ref, got)}
     return result
 
@@ -126,23 +126,23 @@ def runtime_agreement(graph: Graph, tflite: bytes, samples) -> dict:
     inputs as ONNX Runtime (what the two files and their kernels contribute).
     ``whole_graph``: both runtimes run the whole graph from the same inputs, so a
     1-LSB difference can grow downstream; per LiteRT kernel set, every tensor's
-    largest difference.  ``reference`` keeps every intermediate tensor; XNNPACK
+    largest difference.  ``tflite-ref`` keeps every intermediate tensor; XNNPACK
     (LiteRT's default CPU path) keeps none, so each tensor is the output of the
     graph prefix producing it.  The flat ``end_to_end_*`` keys summarise the int8
     tensors of each.
     """
     names = [op.outputs[0] for op in graph.ops]  # the graph inputs are the same integers in both by construction
     ort_runner = OnnxRunner(to_onnx(graph, expose=names))
-    reference = TfliteRunner(tflite, "reference", preserve_all=True)
+    reference = TfliteRunner(tflite, "tflite-ref", preserve_all=True)
     prefixes = {n: TfliteRunner(to_tflite(prefix_graph(graph, n)), "xnnpack") for n in names}
-    worst = {k: dict.fromkeys(names, 0) for k in ("reference", "xnnpack")}
+    worst = {k: dict.fromkeys(names, 0) for k in ("tflite-ref", "xnnpack")}
     differing = dict.fromkeys(worst, 0)
     total = 0
     per_op = {}
     for i, s in enumerate(samples):
         q = quantize_inputs(graph, list(s))
         ort = {**dict(zip(graph.inputs, q)), **ort_runner.run(q)}
-        runs = {"reference": reference.run(q, names), "xnnpack": {n: prefixes[n].run(q)[n] for n in names}}
+        runs = {"tflite-ref": reference.run(q, names), "xnnpack": {n: prefixes[n].run(q)[n] for n in names}}
         for kernels, got in runs.items():
             for n in names:
                 d = _lsb(got[n], ort[n])
@@ -153,16 +153,16 @@ def runtime_agreement(graph: Graph, tflite: bytes, samples) -> dict:
             for op in graph.ops:
                 sub = op_graph(graph, op)
                 inputs = [ort[n] for n in sub.inputs]
-                alone = TfliteRunner(to_tflite(sub), "reference").run(inputs)[op.outputs[0]]
+                alone = TfliteRunner(to_tflite(sub), "tflite-ref").run(inputs)[op.outputs[0]]
                 per_op[op.outputs[0]] = int(_lsb(alone, OnnxRunner(to_onnx(sub)).run(inputs)[op.outputs[0]]).max())
     int8 = [n for n in names if graph.tensors[n].dtype == "int8"]
     int16 = [n for n in names if graph.tensors[n].dtype == "int16"]
     summary = {"per_op_max_lsb": max(per_op.values())}
-    for kernels, suffix in (("reference", ""), ("xnnpack", "_xnnpack")):
+    for kernels, suffix in (("tflite-ref", ""), ("xnnpack", "_xnnpack")):
         summary[f"end_to_end_max_lsb{suffix}"] = max((worst[kernels][n] for n in int8), default=0)
         summary[f"end_to_end_max_lsb_int16{suffix}"] = max((worst[kernels][n] for n in int16), default=0)
         summary[f"end_to_end_fraction_differing{suffix}"] = differing[kernels] / max(total, 1)
-    return {**summary, "per_op": per_op, "whole_graph": {f"litert_{k}": v for k, v in worst.items()}}
+    return {**summary, "per_op": per_op, "whole_graph": worst}
 
 
 def _lsb(a: np.ndarray, b: np.ndarray) -> np.ndarray:

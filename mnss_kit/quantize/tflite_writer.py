@@ -1,8 +1,7 @@
 """Quantized Graph -> ``npu.tflite``, written with the LiteRT flatbuffer schema (no TensorFlow).
 
 NHWC, integer inputs and outputs, every scale and zero point copied from the
-graph.  Op versions are the lowest that cover int8 (and int16 where used); the
-reference resolver accepts DEPTH_TO_SPACE only at version 1.
+graph.  Ops and their versions come from ``mnss_kit.ops.npu_ops.NPU_OPS``.
 """
 
 from __future__ import annotations
@@ -11,6 +10,7 @@ import flatbuffers
 import numpy as np
 from ai_edge_litert import schema_py_generated as schema
 
+from ..ops.npu_ops import NPU_OPS
 from .graph import Graph, Op
 
 FILE_IDENTIFIER = b"TFL3"
@@ -29,23 +29,6 @@ ACTIVATIONS = {
     "relu": schema.ActivationFunctionType.RELU,
     "relu6": schema.ActivationFunctionType.RELU6,
     "relu_n1_to_1": schema.ActivationFunctionType.RELU_N1_TO_1,
-}
-# op -> (version for int8, version when int16 activations are involved)
-OP_VERSIONS = {
-    "CONV_2D": (3, 4),
-    "DEPTHWISE_CONV_2D": (3, 5),
-    "ADD": (2, 3),
-    "MUL": (2, 4),
-    "CONCATENATION": (2, 3),
-    "LOGISTIC": (2, 3),
-    "TANH": (2, 3),
-    "AVERAGE_POOL_2D": (2, 3),
-    "RESIZE_BILINEAR": (3, 4),
-    "DEPTH_TO_SPACE": (1, 1),
-    "SPACE_TO_DEPTH": (2, 2),
-    "PAD": (2, 4),
-    "QUANTIZE": (2, 4),
-    "DEQUANTIZE": (2, 4),
 }
 
 
@@ -117,7 +100,8 @@ class _Writer:
         if dtypes == {"float32"}:
             version = 1
         else:
-            version = OP_VERSIONS[op.kind][1 if "int16" in dtypes else 0]
+            npu_op = NPU_OPS[op.kind]
+            version = npu_op.version_int16 if "int16" in dtypes else npu_op.version
         key = (code, version)
         if key not in self.opcode_index:
             oc = schema.OperatorCodeT()

@@ -1,11 +1,12 @@
 """Float PyTorch module (NCHW) -> float :class:`~.graph.Graph` (NHWC), by torch.fx tracing.
 
-Accepted: ``nn.Conv2d`` (bias or not, groups 1 or depthwise, zero padding),
+Accepted (each becomes ops of ``mnss_kit.ops.npu_ops.NPU_OPS``, the table split asks
+too): ``nn.Conv2d`` (bias or not, groups 1 or depthwise, zero padding),
 ReLU / ReLU6 / Hardtanh / clamp (folded into the producing convolution or
 addition), ``PixelShuffle`` / ``PixelUnshuffle``, ``torch.cat`` on channels,
 elementwise ``+`` and ``*`` (tensor or scalar), sigmoid, tanh, average pooling
-without padding, bilinear resizing, identity and dropout.  Anything else is a
-``UserError`` naming the node.
+without padding, bilinear resizing, identity and dropout, on NCHW image inputs.  Anything
+else is a ``UserError`` naming the node.
 
 PixelShuffle's channel order (``c * r^2 + k``) is not DEPTH_TO_SPACE's
 (``k * C + c``).  The convolution that produces a PixelShuffle input writes its
@@ -85,6 +86,8 @@ class _Converter:
         meta = node.meta.get("tensor_meta")
         if meta is None or not hasattr(meta, "shape"):
             raise self.fail(node, "output is not a single tensor")
+        if len(meta.shape) != 4:
+            raise self.fail(node, f"a tensor of shape {list(meta.shape)}, not an NCHW image")
         n, c, h, w = tuple(meta.shape)
         return (n, h, w, c)
 

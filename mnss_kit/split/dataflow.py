@@ -3,7 +3,8 @@
 :func:`trace_model` runs one small frame through the model with a hook on every stage
 (``model.stages()``) and a dispatch-level recorder that sees every ATen op the stage runs,
 including those inside helper functions.  Each op is mapped to the TFLite builtin the NPU
-graph would need (``grid_sample`` has none).  Tensors are described by the grid they live on
+graph would need (``grid_sample`` has none); :func:`npu_graph_refusal` says whether the int8
+NPU graph (``ops.npu_ops.NPU_OPS``, what ``quantize`` writes) can hold a stage at all.  Tensors are described by the grid they live on
 (``hr``, ``lr`` or ``other``) and their channel count, so sizes can be evaluated at any
 output resolution afterwards.
 
@@ -32,6 +33,7 @@ from torch.utils._python_dispatch import TorchDispatchMode
 from ..model.families import family_of
 from ..model.family import example_frame
 from ..model.macs import count_macs
+from ..ops.npu_ops import NPU_OPS
 
 # ATen op -> TFLite builtin
 TFLITE_OPS = {
@@ -134,6 +136,19 @@ class ModelFlow:
 
     def stage(self, name: str) -> StageFlow:
         return next(s for s in self.stages if s.name == name)
+
+
+def npu_graph_refusal(stage: StageFlow) -> str:
+    """Why the int8 NPU graph cannot hold ``stage`` on any device, or "" if it can: an op with no
+    entry in ``ops.npu_ops.NPU_OPS``, or an input that is not an image (the graph takes NCHW
+    tensors in, as NHWC; a per-frame vector such as the jitter has no place in it)."""
+    missing = sorted({op.op for op in stage.ops if op.op not in NPU_OPS})
+    if missing:
+        return f"the int8 NPU graph has no {', '.join(missing)}"
+    vectors = [t.name for t in stage.inputs if len(t.traced_shape) != 4]
+    if vectors:
+        return f"the int8 NPU graph takes images only, not {', '.join(vectors)}"
+    return ""
 
 
 def trace_model(model: nn.Module, lr_size: tuple[int, int] = (8, 12)) -> ModelFlow:

@@ -19,12 +19,12 @@ real kernel reaches.  Estimates made from a profile are estimates, and are label
 from __future__ import annotations
 
 import difflib
-import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..config import from_dict, read_yaml, resolve_config_path
 from ..errors import UserError
+from ..ops.npu_ops import NPU_OPS
 
 SCHEMA_VERSION = 1
 
@@ -55,7 +55,7 @@ class NpuSpec:
     name: str
     int8_tops: float  # peak int8 throughput, TOP/s (one MAC = 2 ops)
     achievable_fraction: float
-    ops: list[str] = field(default_factory=list)  # TFLite builtin op names the NPU accepts
+    ops: list[str] = field(default_factory=list)  # the ops.npu_ops.NPU_OPS this NPU accepts
 
     def __post_init__(self):
         _check_positive(self.int8_tops, "npu.int8_tops")
@@ -114,24 +114,16 @@ class DeviceProfile:
         return self.npu is not None and op in self.npu.ops
 
 
-@functools.lru_cache(maxsize=1)
-def tflite_builtin_ops() -> frozenset[str]:
-    """Names of the TFLite builtin operators (from the LiteRT flatbuffer schema)."""
-    from ai_edge_litert import schema_py_generated as schema
-
-    return frozenset(n for n in vars(schema.BuiltinOperator) if n.isupper())
-
-
 def device_from_dict(data: dict, source: str = "device profile") -> DeviceProfile:
-    """Validate plain data into a :class:`DeviceProfile` (unknown keys and op names rejected)."""
+    """Validate plain data into a :class:`DeviceProfile` (unknown keys rejected; every NPU op
+    must be one the int8 NPU graph can hold, ``ops.npu_ops.NPU_OPS``)."""
     profile = from_dict(DeviceProfile, data, source=source)
     if profile.npu is not None:
-        known = tflite_builtin_ops()
         for op in profile.npu.ops:
-            if op not in known:
-                close = difflib.get_close_matches(op, sorted(known), n=1)
-                hint = f" (did you mean {close[0]}?)" if close else ""
-                raise UserError(f"{source}: npu.ops lists '{op}', which is not a TFLite builtin op{hint}")
+            if op not in NPU_OPS:
+                close = difflib.get_close_matches(op, sorted(NPU_OPS), n=1)
+                hint = f" (did you mean {close[0]}?)" if close else f" (one of: {', '.join(NPU_OPS)})"
+                raise UserError(f"{source}: npu.ops lists '{op}', which is not an op of the int8 NPU graph{hint}")
     return profile
 
 

@@ -10,8 +10,9 @@ Placements (``PLACEMENTS``):
 plus the named modes of each family (``Family.placements``: the default with more stages on
 the NPU; MNSS's ``aa-on-npu`` moves its anti-aliasing net there).
 
-A stage goes to the NPU only if the device has one and accepts every op of the stage
-(``DeviceProfile.npu.ops``); a stage is never cut in two.  Every op left on the GPU carries
+A stage goes to the NPU only if the int8 NPU graph can hold it (``dataflow.npu_graph_refusal``:
+every op in ``ops.npu_ops.NPU_OPS``, image inputs only) and the device has an NPU that accepts
+every op of the stage (``DeviceProfile.npu.ops``); a stage is never cut in two.  Every op left on the GPU carries
 the reason.  :class:`Placement` is plain data (``to_dict``) for reports and bundle manifests.
 """
 
@@ -22,7 +23,7 @@ from collections import Counter
 from dataclasses import asdict, dataclass, field
 
 from ..model.families import GENERIC_PLACEMENTS, family_named, placement_modes
-from .dataflow import NOTES, ModelFlow, StageFlow, trace_model
+from .dataflow import NOTES, ModelFlow, StageFlow, npu_graph_refusal, trace_model
 from .device import DeviceProfile
 from .estimate import ESTIMATE_LABEL, StageCostEstimate, estimate_stage, handoff_ms
 
@@ -138,7 +139,11 @@ class _Planner:
         self.costs: dict[tuple[str, str], StageCostEstimate] = {}
 
     def eligible(self, stage: StageFlow) -> bool:
-        return self.device.has_npu and all(op.builtin and self.device.npu_accepts(op.op) for op in stage.ops)
+        return self.device.has_npu and not self.rejected(stage) and not npu_graph_refusal(stage)
+
+    def rejected(self, stage: StageFlow) -> list[str]:
+        """The stage's ops the device's NPU does not accept (a subset of ``ops.npu_ops.NPU_OPS``)."""
+        return sorted({op.op for op in stage.ops if not (op.builtin and self.device.npu_accepts(op.op))})
 
     def cost(self, stage: StageFlow, processor: str) -> StageCostEstimate:
         key = (stage.name, processor)
@@ -209,10 +214,12 @@ class _Planner:
             return ""
         if not self.device.has_npu:
             return "the device profile has no NPU: all stages run on the GPU"
-        rejected = sorted({op.op for op in stage.ops if not (op.builtin and self.device.npu_accepts(op.op))})
+        rejected = self.rejected(stage)
+        wanted = " the model places it on the NPU, but" if stage.placement == "npu" else ""
         if rejected:
-            wanted = " the model places it on the NPU, but" if stage.placement == "npu" else ""
             return f"{wanted} the NPU does not accept {', '.join(rejected)}; a stage stays whole".strip()
+        if npu_graph_refusal(stage):
+            return f"{wanted} {npu_graph_refusal(stage)}".strip()
         if mode == "auto":
             alternative = self.frame_ms(on_npu | {stage.name})
             return (f"auto: estimated frame {alternative:.3f} ms with {stage.name} on the NPU vs "
@@ -234,8 +241,10 @@ class _Planner:
                     reason = NOTES.get(op, f"{op} has no TFLite builtin op")
                 elif not accepts:
                     reason = f"{op} is not in the device's npu.ops"
-                elif not self.eligible(stage):
+                elif self.rejected(stage):
                     reason = f"accepted by the NPU, but {stage.name} also needs ops the NPU rejects"
+                elif npu_graph_refusal(stage):
+                    reason = f"accepted by the NPU, but {npu_graph_refusal(stage)}"
                 else:
                     reason = f"accepted by the NPU, but {stage_reason}"
             out.append(OpPlacement(op, count, accepts, reason))

@@ -16,8 +16,9 @@ import numpy as np
 
 from mnss_kit.gpu.passes import quantize_uniforms
 from mnss_kit.ops import quant
+from mnss_kit.ops.runtimes import RUNTIMES
 
-PROFILES = ("tflite_reference", "tflite_optimized", "xnnpack", "onnxruntime")
+PROFILES = tuple(RUNTIMES)
 # (scale, zero point): the usual image tensors, the fixed LOGISTIC output, and odd ones.
 QPARAMS = ((1 / 255, -128), (1 / 256, -128), (0.0123, -3), (0.00731, 17), (0.5, 0), (2.3e-4, 127))
 

@@ -17,27 +17,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from mnss_kit.emulate.profiles import get_kernel_set
+from mnss_kit.ops.npu_ops import NPU_OPS
+from mnss_kit.ops.runtimes import get_runtime
 
 _TYPES = {"float32": 0, "int32": 2, "int8": 9}
 
 # op name -> (BuiltinOptions member or None, options class name or None)
-_OPTIONS = {
-    "ADD": ("AddOptions", "AddOptionsT"),
-    "AVERAGE_POOL_2D": ("Pool2DOptions", "Pool2DOptionsT"),
-    "CONCATENATION": ("ConcatenationOptions", "ConcatenationOptionsT"),
-    "CONV_2D": ("Conv2DOptions", "Conv2DOptionsT"),
-    "DEPTHWISE_CONV_2D": ("DepthwiseConv2DOptions", "DepthwiseConv2DOptionsT"),
-    "DEPTH_TO_SPACE": ("DepthToSpaceOptions", "DepthToSpaceOptionsT"),
-    "DEQUANTIZE": (None, None),
-    "LOGISTIC": (None, None),
-    "MUL": ("MulOptions", "MulOptionsT"),
-    "PAD": ("PadOptions", "PadOptionsT"),
-    "QUANTIZE": (None, None),
-    "RESIZE_BILINEAR": ("ResizeBilinearOptions", "ResizeBilinearOptionsT"),
-    "SPACE_TO_DEPTH": ("SpaceToDepthOptions", "SpaceToDepthOptionsT"),
-    "TANH": (None, None),
-}
+_OPTIONS = {name: (op.options, op.options and op.options + "T") for name, op in NPU_OPS.items()}
 
 PADDING = {"SAME": 0, "VALID": 1}
 ACTIVATION = {"NONE": 0, "RELU": 1, "RELU_N1_TO_1": 2, "RELU6": 3}
@@ -138,14 +124,14 @@ def _tensor(schema, spec: TensorSpec, name: str, buffers: list) -> Any:
 
 
 class OneOpRunner:
-    """A LiteRT interpreter for a model under one kernel set (a ``profiles.KERNEL_SETS`` key)."""
+    """A LiteRT interpreter for a model under one runtime (an ``ops.runtimes.RUNTIMES`` key)."""
 
-    def __init__(self, model: bytes, kernel_set: str):
+    def __init__(self, model: bytes, runtime: str):
         from ai_edge_litert.interpreter import Interpreter, OpResolverType
 
-        resolver_name = get_kernel_set(kernel_set).resolver
+        resolver_name = get_runtime(runtime).litert_resolver
         if resolver_name is None:
-            raise ValueError(f"kernel set {kernel_set!r} is not a LiteRT kernel set")
+            raise ValueError(f"runtime {runtime!r} is not run by LiteRT")
         resolver = getattr(OpResolverType, resolver_name)
         self.interpreter = Interpreter(model_content=model, num_threads=1,
                                        experimental_op_resolver_type=resolver)
@@ -164,6 +150,6 @@ class OneOpRunner:
         return [interp.get_tensor(d["index"]) for d in interp.get_output_details()]
 
 
-def run_one_op(model: bytes, kernel_set: str, *inputs: np.ndarray) -> np.ndarray:
+def run_one_op(model: bytes, runtime: str, *inputs: np.ndarray) -> np.ndarray:
     """Run a one-op model once and return its first output."""
-    return OneOpRunner(model, kernel_set)(*inputs)[0]
+    return OneOpRunner(model, runtime)(*inputs)[0]

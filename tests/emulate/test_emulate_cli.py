@@ -93,5 +93,4 @@ def test_existing_output_needs_overwrite(root, tmp_path, capsys):
 def test_choices_listed_in_the_command_match_the_emulator():
     from mnss_kit.emulate import command, frame_loop, npu
 
-    assert command.NPU_PROFILES == tuple(npu.NPU_PROFILES)
     assert command.NPU_BACKENDS == npu.BACKENDS and command.GPU_BACKENDS == frame_loop.GPU_BACKENDS

@@ -43,8 +43,8 @@ def make_spec(seed: int = 0, with_history: bool = True) -> BundleSpec:
     npu = {"model": "npu.tflite", "input": "x", "output": "y", "input_q": (float(si), zi), "output_q": (float(so), zo)}
     boundary = [{"role": role, "tensor": t, "direction": d, "scale": float(q), "buffer": {"resource": role}}
                 for role, t, d, q in (("npu_input", "x", "gpu->npu", si), ("npu_output", "y", "npu->gpu", so))]
-    manifest = {"scale": 2, "lr_size": list(LR_SIZE), "golden": {"profile": "tflite_reference"}, "boundary": boundary,
-                "resources": gpu_plan.resources(stage, LR_SIZE), "schedule": gpu_plan.schedule(stage, LR_SIZE, npu, "tflite_reference")}
+    manifest = {"scale": 2, "lr_size": list(LR_SIZE), "golden": {"profile": "tflite-ref"}, "boundary": boundary,
+                "resources": gpu_plan.resources(stage, LR_SIZE), "schedule": gpu_plan.schedule(stage, LR_SIZE, npu, "tflite-ref")}
     return BundleSpec("in-memory bundle", graph, tflite, onnx, manifest, dict(gpu_plan.weight_blocks(stage)))
 
 

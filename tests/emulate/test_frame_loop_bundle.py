@@ -17,13 +17,13 @@ import pytest
 
 from mnss_kit.dataset.format import read_meta
 from mnss_kit.emulate.frame_loop import Emulator
-from mnss_kit.emulate.npu import NPU_PROFILES
 from mnss_kit.emulate.sequence import run_dataset, sequence_frames
 from mnss_kit.errors import UserError
 from mnss_kit.export.manifest import file_table
+from mnss_kit.ops.runtimes import runtime_names
 
 FRAMES = 12
-LITERT_PROFILES = [p.name for p in NPU_PROFILES.values() if p.runtime == "litert"]
+LITERT_PROFILES = runtime_names("litert")
 _BUNDLES: dict[str, Path] = {}
 
 
@@ -83,8 +83,7 @@ def golden_inputs(bundle: Path):
 @pytest.mark.parametrize("npu_backend", ["numpy", "litert"])
 def test_golden_frames_reproduced_bit_exactly(root, npu_backend):
     bundle = root / "bundle"
-    profile = {"tflite_reference": "tflite-ref", "tflite_optimized": "tflite-builtin", "xnnpack": "xnnpack"}[
-        json.loads((bundle / "manifest.json").read_text())["golden"]["profile"]]
+    profile = json.loads((bundle / "manifest.json").read_text())["golden"]["profile"]  # the runtime's name
     emulator = Emulator(bundle, profile, npu_backend)
     for t, (inputs, expected) in enumerate(golden_inputs(bundle)):
         result = emulator.run_frame(inputs, keep_all=True)

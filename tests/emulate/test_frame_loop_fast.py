@@ -8,8 +8,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from mnss_kit.emulate import fast, kernels
-from mnss_kit.emulate.profiles import KERNEL_SETS
 from mnss_kit.ops import quant
+from mnss_kit.ops.runtimes import RUNTIMES
 
 SEEDS = st.integers(0, 2**32 - 1)
 ACTIVATIONS = ("none", "relu", "relu6", "relu_n1_to_1")
@@ -32,25 +32,25 @@ def random_requantizer_case(seed: int):
     return acc, (x_scale, int(rng.integers(-128, 128))), w_scales, out_q, ACTIVATIONS[seed % 4]
 
 
-@pytest.mark.parametrize("numerics", list(quant.PROFILES))
+@pytest.mark.parametrize("runtime", list(RUNTIMES))
 @given(seed=SEEDS)
-def test_requantizer_equals_definition(numerics, seed):
+def test_requantizer_equals_definition(runtime, seed):
     acc, x_q, w_scales, out_q, activation = random_requantizer_case(seed)
     clamp = quant.activation_bounds(activation, out_q[0], out_q[1])
-    expected = quant.requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], numerics, clamp=clamp)
-    got = fast.Requantizer(x_q, w_scales, out_q, activation, numerics)(acc.copy())
+    expected = quant.requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], runtime, clamp=clamp)
+    got = fast.Requantizer(x_q, w_scales, out_q, activation, runtime)(acc.copy())
     assert got.dtype == np.int8
     np.testing.assert_array_equal(got, expected)
 
 
-@pytest.mark.parametrize("numerics", ["tflite_reference", "tflite_optimized"])
-def test_int32_safe_path_equals_definition_on_small_accumulators(numerics):
+@pytest.mark.parametrize("runtime", ["tflite-ref", "tflite-builtin"])
+def test_int32_safe_path_equals_definition_on_small_accumulators(runtime):
     rng = np.random.default_rng(3)
     acc = rng.integers(-(2**22), 2**22, size=(4096, 8), dtype=np.int64)
     acc[::97] = 2**21 + np.arange(8) * 2**15  # values with many trailing zero bits: rounding ties
     w_scales = (2.0 ** -np.arange(8)).astype(np.float32)
-    expected = quant.requantize(acc, 0.5, w_scales, 0.25, 3, numerics)
-    got = fast.Requantizer((0.5, 0), w_scales, (0.25, 3), "none", numerics)(acc.copy(), fits_int32=True)
+    expected = quant.requantize(acc, 0.5, w_scales, 0.25, 3, runtime)
+    got = fast.Requantizer((0.5, 0), w_scales, (0.25, 3), "none", runtime)(acc.copy(), fits_int32=True)
     np.testing.assert_array_equal(got, expected)
 
 
@@ -73,40 +73,40 @@ def random_conv_case(seed: int, depthwise: bool):
     return x, x_q, weights, w_scales, bias, out_q, stride, str(rng.choice(["SAME", "VALID"])), ACTIVATIONS[seed % 4]
 
 
-@pytest.mark.parametrize("kernel_set", list(KERNEL_SETS))
+@pytest.mark.parametrize("runtime", list(RUNTIMES))
 @given(seed=SEEDS)
-def test_fast_conv2d_equals_kernel(kernel_set, seed):
+def test_fast_conv2d_equals_kernel(runtime, seed):
     x, x_q, weights, w_scales, bias, out_q, stride, padding, activation = random_conv_case(seed, depthwise=False)
     if padding == "VALID" and (x.shape[1] < weights.shape[1] or x.shape[2] < weights.shape[2]):
         padding = "SAME"
-    expected = kernels.conv2d(x, x_q, weights, w_scales, bias, out_q, stride, padding, activation, kernel_set)
-    requantizer = fast.Requantizer(x_q, w_scales, out_q, activation, KERNEL_SETS[kernel_set].numerics)
+    expected = kernels.conv2d(x, x_q, weights, w_scales, bias, out_q, stride, padding, activation, runtime)
+    requantizer = fast.Requantizer(x_q, w_scales, out_q, activation, runtime)
     np.testing.assert_array_equal(fast.conv2d(x, x_q, weights, bias, requantizer, stride, padding), expected)
 
 
-@pytest.mark.parametrize("kernel_set", ["tflite_reference", "xnnpack"])
+@pytest.mark.parametrize("runtime", ["tflite-ref", "xnnpack"])
 @given(seed=SEEDS)
-def test_fast_conv2d_in_blocks_of_rows_equals_kernel(kernel_set, seed):
+def test_fast_conv2d_in_blocks_of_rows_equals_kernel(runtime, seed):
     """Blocks of one to a few output rows (with a shorter last block), strides 1 and 2, SAME and VALID."""
     x, x_q, weights, w_scales, bias, out_q, stride, padding, activation = random_conv_case(seed, depthwise=False)
     if padding == "VALID" and (x.shape[1] < weights.shape[1] or x.shape[2] < weights.shape[2]):
         padding = "SAME"
-    expected = kernels.conv2d(x, x_q, weights, w_scales, bias, out_q, stride, padding, activation, kernel_set)
-    requantizer = fast.Requantizer(x_q, w_scales, out_q, activation, KERNEL_SETS[kernel_set].numerics)
+    expected = kernels.conv2d(x, x_q, weights, w_scales, bias, out_q, stride, padding, activation, runtime)
+    requantizer = fast.Requantizer(x_q, w_scales, out_q, activation, runtime)
     block = int(np.prod(expected.shape[2:])) * (1 + seed % 3)  # output rows per block: 1, 2 or 3
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(fast, "_BLOCK_VALUES", block)
         np.testing.assert_array_equal(fast.conv2d(x, x_q, weights, bias, requantizer, stride, padding), expected)
 
 
-@pytest.mark.parametrize("kernel_set", list(KERNEL_SETS))
+@pytest.mark.parametrize("runtime", list(RUNTIMES))
 @given(seed=SEEDS)
-def test_fast_depthwise_equals_kernel(kernel_set, seed):
+def test_fast_depthwise_equals_kernel(runtime, seed):
     x, x_q, weights, w_scales, bias, out_q, stride, padding, activation = random_conv_case(seed, depthwise=True)
     if padding == "VALID" and (x.shape[1] < weights.shape[1] or x.shape[2] < weights.shape[2]):
         padding = "SAME"
-    expected = kernels.depthwise_conv2d(x, x_q, weights, w_scales, bias, out_q, stride, padding, activation, kernel_set)
-    requantizers = fast.DepthwiseRequantizers(x_q, w_scales, out_q, activation, weights.shape[3], kernel_set)
+    expected = kernels.depthwise_conv2d(x, x_q, weights, w_scales, bias, out_q, stride, padding, activation, runtime)
+    requantizers = fast.DepthwiseRequantizers(x_q, w_scales, out_q, activation, weights.shape[3], runtime)
     np.testing.assert_array_equal(fast.depthwise_conv2d(x, x_q, weights, bias, requantizers, stride, padding), expected)
 
 
@@ -117,11 +117,11 @@ def test_fits_int32_bound():
 
 
 @pytest.mark.parametrize("kind", ["ADD", "MUL"])
-@pytest.mark.parametrize("kernel_set", list(KERNEL_SETS))
+@pytest.mark.parametrize("runtime", list(RUNTIMES))
 @given(seed=SEEDS)
-def test_pair_table_equals_kernel_where_exact(kind, kernel_set, seed):
+def test_pair_table_equals_kernel_where_exact(kind, runtime, seed):
     rng = np.random.default_rng(seed)
-    ks = KERNEL_SETS[kernel_set]
+    ks = RUNTIMES[runtime]
     shape = (1, int(rng.integers(1, 12)), int(rng.integers(1, 12)), int(rng.integers(1, 9)))
     if not fast.pair_table_is_exact(kind, ks, int(np.prod(shape))):
         shape = (1, 4, 4, shape[3])  # a multiple of every vector width
@@ -136,10 +136,10 @@ def test_pair_table_equals_kernel_where_exact(kind, kernel_set, seed):
 
 
 def test_pair_table_is_not_used_where_position_matters():
-    optimized = KERNEL_SETS["tflite_optimized"]
+    optimized = RUNTIMES["tflite-builtin"]
     assert fast.pair_table_is_exact("ADD", optimized, 32) and not fast.pair_table_is_exact("ADD", optimized, 33)
     assert fast.pair_table_is_exact("MUL", optimized, 33)
-    assert fast.pair_table_is_exact("ADD", KERNEL_SETS["tflite_reference"], 33)
+    assert fast.pair_table_is_exact("ADD", RUNTIMES["tflite-ref"], 33)
 
 
 @pytest.mark.parametrize("epilogue", ["none", "relu", "residual_clamp"])

@@ -4,8 +4,8 @@ The graph is built here without torch (``recon_graph``): the shape of the recons
 (space-to-depth, convolutions with ReLU, a depthwise conv, a skip concatenation, depth-to-space,
 the residual add) with random int8 weights, written by the quantize stage's writers.  Over ten
 recurrent frames (each output, perturbed, is the next input) every int8 tensor must be identical
-between the numpy interpreter and LiteRT under the matching kernel set, and a wrong kernel set
-must show differences.
+between the numpy interpreter and LiteRT under the matching runtime, and a wrong runtime must
+show differences.
 """
 
 from __future__ import annotations
@@ -13,16 +13,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mnss_kit.emulate.npu import NPU_PROFILES, NpuProfile, NumpyNpu, open_npu
+from mnss_kit.emulate.npu import open_npu
 from mnss_kit.emulate.npu_graph import read_npu_graph
-from mnss_kit.emulate.profiles import KERNEL_SETS
 from mnss_kit.errors import UserError
 from mnss_kit.ops import quant as Q
+from mnss_kit.ops.runtimes import runtime_names
 from mnss_kit.quantize.graph import Graph, Op, Tensor
 from mnss_kit.quantize.onnx_writer import to_onnx
 from mnss_kit.quantize.tflite_writer import to_tflite
 
-LITERT_PROFILES = [p.name for p in NPU_PROFILES.values() if p.runtime == "litert"]
+LITERT_PROFILES = runtime_names("litert")
 IMAGE_Q = (1.0 / 255.0, -128)  # display values in [0, 1]
 RELU_Q = (3.0 / 255.0, -128)  # [0, 3]
 SIGNED_Q = (6.0 / 255.0, 0)  # about [-3, 3]
@@ -134,7 +134,7 @@ def test_numpy_equals_litert_over_recurrent_frames(files, first_input, profile):
 
 
 def test_wrong_profile_is_detected(files, first_input):
-    """Each runtime's outputs differ from the numpy interpreter under some other kernel set."""
+    """Each runtime's outputs differ from the numpy interpreter under some other runtime."""
     tflite, _ = files
     for runtime in LITERT_PROFILES:
         expected = run_recurrent(open_npu(tflite, runtime, "litert"), first_input, keep_all=False)
@@ -143,7 +143,7 @@ def test_wrong_profile_is_detected(files, first_input):
             npu = open_npu(tflite, other, "numpy")
             mismatches[other] = sum(int(np.count_nonzero(npu.run({"x": f["x"]})["y"] != f["y"])) for f in expected)
         assert mismatches[runtime] == 0
-        assert max(mismatches.values()) > 0, f"{runtime}: no other kernel set differs ({mismatches})"
+        assert max(mismatches.values()) > 0, f"{runtime}: no other runtime differs ({mismatches})"
 
 
 def test_onnxruntime_backend_runs_close_to_the_tflite_reference(files, first_input):
@@ -163,13 +163,6 @@ def test_numpy_equals_onnxruntime(files, first_input):
     npu = open_npu(tflite, "ort-cpu", "numpy")
     for t, frame in enumerate(expected):
         assert np.array_equal(npu.run({"x": frame["x"]})["y"], frame["y"]), f"frame {t}"
-
-
-def test_profile_without_kernel_set_is_a_user_error(files):
-    profile = NpuProfile("vendor", "vendor_kernels", "onnxruntime", None, "kernels the numpy backend does not reproduce")
-    assert profile.kernel_set not in KERNEL_SETS
-    with pytest.raises(UserError, match="no kernel set for profile 'vendor'"):
-        NumpyNpu(read_npu_graph(files[0]), profile)
 
 
 def test_profile_and_backend_mismatch_are_user_errors(files):

@@ -52,7 +52,7 @@ def run_chain(x, x_q, layers, kernel_set: str, litert: bool) -> np.ndarray:
             x = litert_layer(x, x_q, layer, kernel_set)
         else:
             x = kernels.conv2d(x, x_q, layer["weights"], layer["w_scales"], layer["bias"], layer["out_q"],
-                               padding="SAME", profile=kernel_set)
+                               padding="SAME", runtime=kernel_set)
         x_q = layer["out_q"]
     return x
 
@@ -63,13 +63,13 @@ def test_deep_conv_chain_differs_between_reference_and_xnnpack():
     x = rng.integers(-128, 128, (1, 24, 24, CHANNELS)).astype(np.int8)
     x_q = (np.float32(0.02), 0)
     outputs = {}
-    for kernel_set in ("tflite_reference", "xnnpack"):
+    for kernel_set in ("tflite-ref", "xnnpack"):
         emulated = run_chain(x, x_q, layers, kernel_set, litert=False)
         np.testing.assert_array_equal(emulated, run_chain(x, x_q, layers, kernel_set, litert=True))
         outputs[kernel_set] = emulated
-    differ = outputs["tflite_reference"] != outputs["xnnpack"]
+    differ = outputs["tflite-ref"] != outputs["xnnpack"]
     assert differ.any(), "reference and XNNPACK agree after a deep chain: the profile choice would not matter"
-    one_layer = kernels.conv2d(x, x_q, **{k: layers[0][k] for k in ("weights", "w_scales", "bias", "out_q")}, profile="xnnpack")
+    one_layer = kernels.conv2d(x, x_q, **{k: layers[0][k] for k in ("weights", "w_scales", "bias", "out_q")}, runtime="xnnpack")
     one_layer_ref = kernels.conv2d(x, x_q, **{k: layers[0][k] for k in ("weights", "w_scales", "bias", "out_q")})
     assert differ.mean() > (one_layer != one_layer_ref).mean(), "differences should compound with depth"
 

@@ -1,11 +1,11 @@
-"""Each emulator kernel equals LiteRT bit for bit under every kernel set.
+"""Each emulator kernel equals LiteRT bit for bit under every LiteRT runtime.
 
 Every generated case writes a one-op int8 ``.tflite`` model with random
 shapes, scales and zero points, runs it with LiteRT's reference kernels, its
 optimized builtin kernels and XNNPACK, and compares each output with the
-numpy kernel under the matching kernel set: zero mismatches.  Scales are
+numpy kernel under the matching runtime: zero mismatches.  Scales are
 drawn half the time "tie-prone" (power-of-two and small-rational ratios) so
-that rounding ties, where the kernel sets differ, really occur.
+that rounding ties, where the runtimes differ, really occur.
 """
 
 from __future__ import annotations
@@ -18,11 +18,11 @@ from hypothesis import strategies as st
 from litert_ops import ACTIVATION, PADDING, OneOpRunner, TensorSpec, single_op_model
 
 from mnss_kit.emulate import kernels
-from mnss_kit.emulate.profiles import KERNEL_SETS
+from mnss_kit.ops.runtimes import runtime_names
 
 pytest.importorskip("ai_edge_litert")
 
-LITERT_SETS = [name for name, ks in KERNEL_SETS.items() if ks.resolver is not None]
+LITERT_SETS = runtime_names("litert")
 SEEDS = st.integers(0, 2**32 - 1)
 TIE_RATIOS = np.array([1.0, 0.5, 0.25, 0.125, 0.75, 1.5, 3.0, 2.0, 1.0 / 3.0, 0.375])
 
@@ -100,14 +100,14 @@ def conv_case(rng: np.random.Generator, depthwise: bool):
 def test_conv2d(seed):
     model, x, kw = conv_case(np.random.default_rng(seed), depthwise=False)
     for name, y in run_everywhere(model, x).items():
-        assert_same(y, kernels.conv2d(x, profile=name, **kw), name)
+        assert_same(y, kernels.conv2d(x, runtime=name, **kw), name)
 
 
 @given(SEEDS)
 def test_depthwise_conv2d(seed):
     model, x, kw = conv_case(np.random.default_rng(seed), depthwise=True)
     for name, y in run_everywhere(model, x).items():
-        assert_same(y, kernels.depthwise_conv2d(x, profile=name, **kw), name)
+        assert_same(y, kernels.depthwise_conv2d(x, runtime=name, **kw), name)
 
 
 # ---------------------------------------------------------------------------
@@ -141,7 +141,7 @@ def test_add_mul(op, seed):
     model = single_op_model(op, [qspec(shape, a_q), qspec(shape, b_q)], [qspec(shape, out_q)], options)
     fn = kernels.add if op == "ADD" else kernels.mul
     for name, y in run_everywhere(model, a, b).items():
-        assert_same(y, fn(a, a_q, b, b_q, out_q, activation, profile=name), name)
+        assert_same(y, fn(a, a_q, b, b_q, out_q, activation, runtime=name), name)
 
 
 @pytest.mark.parametrize("op", ["LOGISTIC", "TANH"])
@@ -154,7 +154,7 @@ def test_logistic_tanh(op, seed):
     model = single_op_model(op, [qspec(x.shape, x_q)], [qspec(x.shape, out_q)])
     fn = kernels.logistic if op == "LOGISTIC" else kernels.tanh
     for name, y in run_everywhere(model, x).items():
-        expected = fn(x, x_q, profile=name)
+        expected = fn(x, x_q, runtime=name)
         if op == "LOGISTIC" and name == "xnnpack":
             assert_near_tie_only(y, expected, x, x_q)
         else:
@@ -189,7 +189,7 @@ def test_average_pool2d(seed):
     options = dict(padding=PADDING[padding], strideW=stride, strideH=stride, filterWidth=size, filterHeight=size)
     model = single_op_model("AVERAGE_POOL_2D", [qspec(shape, q)], [qspec((1, ho, wo, shape[3]), q)], options)
     for name, y in run_everywhere(model, x).items():
-        assert_same(y, kernels.average_pool2d(x, size, stride, padding, profile=name), name)
+        assert_same(y, kernels.average_pool2d(x, size, stride, padding, runtime=name), name)
 
 
 @given(SEEDS)
@@ -206,7 +206,7 @@ def test_resize_bilinear(seed):
     model = single_op_model("RESIZE_BILINEAR", [qspec(shape, q), size], [qspec((1, *out_hw, shape[3]), q)],
                             dict(halfPixelCenters=True))
     for name, y in run_everywhere(model, x).items():
-        assert_same(y, kernels.resize_bilinear(x, out_hw, True, profile=name), name)
+        assert_same(y, kernels.resize_bilinear(x, out_hw, True, runtime=name), name)
 
 
 @pytest.mark.parametrize("op", ["DEPTH_TO_SPACE", "SPACE_TO_DEPTH"])
@@ -261,7 +261,7 @@ def test_quantize_float(seed):
     x[ties] = ((np.round(x[ties] / q[0] * 2) / 2) * q[0]).astype(np.float32)
     model = single_op_model("QUANTIZE", [TensorSpec(shape, "float32")], [qspec(shape, q)])
     for name, y in run_everywhere(model, x).items():
-        assert_same(y, kernels.quantize(x, q, profile=name), name)
+        assert_same(y, kernels.quantize(x, q, runtime=name), name)
 
 
 @given(SEEDS)
@@ -274,7 +274,7 @@ def test_requantize_int8(seed):
     x = int8(rng, shape)
     model = single_op_model("QUANTIZE", [qspec(shape, x_q)], [qspec(shape, out_q)])
     for name, y in run_everywhere(model, x).items():
-        assert_same(y, kernels.requantize(x, x_q, out_q, profile=name), name)
+        assert_same(y, kernels.requantize(x, x_q, out_q, runtime=name), name)
 
 
 @given(SEEDS)
@@ -285,4 +285,4 @@ def test_dequantize(seed):
     x = int8(rng, shape)
     model = single_op_model("DEQUANTIZE", [qspec(shape, q)], [TensorSpec(shape, "float32")])
     for name, y in run_everywhere(model, x).items():
-        assert_same(y, kernels.dequantize(x, q, profile=name), name)
+        assert_same(y, kernels.dequantize(x, q, runtime=name), name)

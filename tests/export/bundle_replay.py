@@ -13,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 
-from mnss_kit.export.golden import PROFILE_RESOLVERS
 from mnss_kit.gpu.mesa import NUMPY_DTYPES, TEXTURE_FORMATS
 
 
@@ -33,7 +32,7 @@ class Replay:
         self.res = {r["name"]: self._allocate(r) for r in self.m["resources"]}
         from mnss_kit.quantize.runtime import TfliteRunner
 
-        self.npu = TfliteRunner((self.bundle / self.m["npu"]["model"]).read_bytes(), PROFILE_RESOLVERS[self.m["golden"]["profile"]])
+        self.npu = TfliteRunner((self.bundle / self.m["npu"]["model"]).read_bytes(), self.m["golden"]["profile"])
 
     def _allocate(self, r: dict):
         if r["kind"] == "buffer":

@@ -54,7 +54,7 @@ def test_reference_pipeline_from_the_bundle_reproduces_golden(bundle):
 
     b = open_bundle(bundle)
     stage, boundary = _stage(b), _boundary(b)
-    runner = TfliteRunner(b.npu_model(), "reference")
+    runner = TfliteRunner(b.npu_model(), "tflite-ref")
     passes, state = ReferencePasses(), None
     for i in range(len(b.manifest["golden"]["frames"])):
         frame, want = b.golden_inputs(i), b.golden(i)

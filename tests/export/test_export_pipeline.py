@@ -8,10 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-import yaml
 
 from mnss_kit.cli import main
-from mnss_kit.config import CONFIG_DIR
 from mnss_kit.errors import UserError
 from mnss_kit.export.check import check_bundle
 from mnss_kit.export.npu_stage import retarget
@@ -50,14 +48,10 @@ def test_failed_export_leaves_nothing(tiny_ckpt, synthetic_dataset, tmp_path, mo
     assert list(tmp_path.iterdir()) == []
 
 
-def test_placement_with_more_than_recon_on_the_npu_is_refused(tiny_ckpt, tmp_path):
-    # A device whose NPU also takes GATHER_ND (the tiny model's AA net reads the history at the samples).
-    device = yaml.safe_load((CONFIG_DIR / "devices" / "snapdragon_8_gen_1.yaml").read_text())
-    device["npu"]["ops"].append("GATHER_ND")
-    (tmp_path / "phone.yaml").write_text(yaml.safe_dump(device))
-    request = ExportRequest(model=str(tiny_ckpt), out=tmp_path / "b", resolution="64x48", device=str(tmp_path / "phone.yaml"),
-                            placement="aa-on-npu", progress=False)
-    with pytest.raises(UserError, match="runs aa, recon on the NPU"):
+def test_placement_without_recon_on_the_npu_is_refused(tiny_ckpt, tmp_path):
+    request = ExportRequest(model=str(tiny_ckpt), out=tmp_path / "b", resolution="64x48", device="snapdragon_8_gen_1",
+                            placement="all-gpu", progress=False)
+    with pytest.raises(UserError, match="runs nothing on the NPU"):
         export(request)
 
 
@@ -99,11 +93,17 @@ def test_golden_frames_are_rendered_when_no_data_has_the_bundle_size(tiny_ckpt, 
 def test_command_choices_mirror_their_sources():
     """The CLI lists choices without importing the heavy modules that define them."""
     from mnss_kit.export import command
-    from mnss_kit.export.golden import PROFILE_RESOLVERS
     from mnss_kit.quantize.command import METHODS
 
-    assert command.PROFILES == tuple(PROFILE_RESOLVERS)
     assert command.METHODS == METHODS
+
+
+def test_manifest_schema_accepts_the_runtimes_golden_frames_can_use():
+    """The schema's profile names are the LiteRT runtimes of ops.runtimes: golden frames run in LiteRT."""
+    from mnss_kit.export.manifest import load_schema
+    from mnss_kit.ops.runtimes import runtime_names
+
+    assert tuple(load_schema()["$defs"]["profile"]["enum"]) == runtime_names("litert")
 
 
 def test_a_run_directory_named_like_a_shipped_model_does_not_hide_it(tmp_path, monkeypatch):

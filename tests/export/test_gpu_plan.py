@@ -19,7 +19,7 @@ def test_groups_cover_the_grid(config, lr_size):
     cfg = load_model_config(config)
     stage = GpuStage.from_model(cfg, {k: v.numpy() for k, v in build_model(cfg).state_dict().items()})
     npu = {"model": "npu.tflite", "input": "image", "output": "add", "input_q": (1 / 255, -128), "output_q": (1 / 255, -128)}
-    steps = gpu_plan.schedule(stage, lr_size, npu, "tflite_reference")["steps"]
+    steps = gpu_plan.schedule(stage, lr_size, npu, "tflite-ref")["steps"]
     w, h = lr_size
     s = cfg.scale
     words = -(-w * s * h * s * 3 // 4)

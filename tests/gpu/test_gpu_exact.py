@@ -13,6 +13,7 @@ from mnss_kit.gpu import mesa as mesa_module
 from mnss_kit.gpu.glsl import flatten_text
 from mnss_kit.gpu.passes import quantize_uniforms
 from mnss_kit.ops import quant
+from mnss_kit.ops.runtimes import RUNTIMES, get_runtime
 
 HALF_BITS_SHADER = """#version 310 es
 precision highp float;
@@ -99,13 +100,13 @@ def test_fp16_store_rounding_matches_numpy(mesa):
 # and 0.0123 have near-ties where the float32 division's own rounding decides; 3.0 and 1e-4
 # squeeze or saturate most values.
 QPARAMS = [(1 / 255, -128), (2.0**-7, 0), (2.0**-9, 3), (0.0123, -20), (3.0, 0), (1e-4, 127)]
-HALF_UP = dataclasses.replace(quant.PROFILES["tflite_reference"], name="half_up_test", quantize_rounding="half_up")
-PROFILES = [*quant.PROFILES, HALF_UP]
+HALF_UP = dataclasses.replace(RUNTIMES["tflite-ref"], name="half_up_test", quantize_rounding="half_up")
+PROFILES = [*RUNTIMES, HALF_UP]
 
 
 def quantized_ties(x: np.ndarray, scale: float, profile) -> int:
     """How many values of ``x`` land exactly on k + 0.5 after the profile's float32 scaling."""
-    p = quant.get_profile(profile)
+    p = get_runtime(profile)
     s = np.float32(scale)
     scaled = x * (np.float32(1) / s) if p.quantize_reciprocal else x / s
     return int(np.count_nonzero(np.abs(scaled - np.floor(scaled) - 0.5) == 0))
@@ -174,7 +175,7 @@ def near_ties(q_scale: float) -> np.ndarray:
 def test_quantize_float32_near_ties(mesa, profile):
     """quant.glsl on float32 inputs (24-bit significands), where the float32 rounding of the
     division or product, not only the final tie rule, decides the result."""
-    p = quant.get_profile(profile)
+    p = get_runtime(profile)
     for q_scale, zero_point in [(1 / 255, -128), (0.0123, 7), (0.3, 0), (1 / 3, -1), (2.0**-7, 0)]:
         xs = near_ties(q_scale)
         got = run_buffer_shader(mesa, QUANTIZE_SHADER, xs, quantize_uniforms(q_scale, zero_point, p)).view(np.int32)

@@ -25,7 +25,7 @@ from mnss_kit.model.families import build_model
 from mnss_kit.ops import quant
 
 TOLERANCE = {"warped": 5e-4, "rectified": 1e-3, "aa": 2e-3}
-BOUNDARY = NpuBoundary(1 / 255, -128, 1 / 255, -128, "tflite_reference")
+BOUNDARY = NpuBoundary(1 / 255, -128, 1 / 255, -128, "tflite-ref")
 H, W = 8, 10
 
 

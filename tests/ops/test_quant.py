@@ -9,8 +9,9 @@ import pytest
 import torch
 
 from mnss_kit.ops import quant as Q
+from mnss_kit.ops.runtimes import ADD_METHODS, RUNTIMES
 
-PROFILES = list(Q.PROFILES)
+PROFILES = list(RUNTIMES)
 
 
 def test_rounding_divide_by_pot_ties_away_from_zero():
@@ -72,15 +73,15 @@ def test_profiles_differ_only_at_ties():
 def test_requantize_double_rounding_differs_from_half_up_at_a_tie():
     # multiplier 0.75 * 2^-2: x * m lands on .5 after the high multiply for x = 2
     acc = np.array([[2], [-2], [6], [-6]])
-    ref = Q.requantize(acc, 1.0, np.float32(0.25), 1.0, 0, "tflite_reference")
-    opt = Q.requantize(acc, 1.0, np.float32(0.25), 1.0, 0, "tflite_optimized")
+    ref = Q.requantize(acc, 1.0, np.float32(0.25), 1.0, 0, "tflite-ref")
+    opt = Q.requantize(acc, 1.0, np.float32(0.25), 1.0, 0, "tflite-builtin")
     assert ref[:, 0].tolist() == [1, -1, 2, -2]  # ties away from zero
     assert opt[:, 0].tolist() == [1, 0, 2, -1]  # ties toward +inf
 
 
 def test_requantize_clamp_bounds():
     acc = np.array([[-1000], [1000]])
-    out = Q.requantize(acc, 1.0, np.float32(1.0), 1.0, -128, "tflite_reference", clamp=(-128, 0))
+    out = Q.requantize(acc, 1.0, np.float32(1.0), 1.0, -128, "tflite-ref", clamp=(-128, 0))
     assert out[:, 0].tolist() == [-128, 0]
 
 
@@ -88,14 +89,14 @@ def test_requantize_clamp_bounds():
 def test_quantize_dequantize_roundtrip(profile):
     x = np.linspace(-1.0, 2.0, 1001, dtype=np.float32)
     scale, zp = Q.choose_qparams(-1.0, 2.0)
-    q = Q.quantize(x, scale, zp, profile=profile)
+    q = Q.quantize(x, scale, zp, runtime=profile)
     assert np.abs(Q.dequantize(q, scale, zp) - x).max() <= scale / 2 * 1.001
 
 
 def test_quantize_ties():
     x = np.array([0.5, 1.5, 2.5, -0.5, -2.5], np.float32)
-    assert Q.quantize(x, 1.0, 0, profile="tflite_reference").tolist() == [1, 2, 3, -1, -3]
-    assert Q.quantize(x, 1.0, 0, profile="onnxruntime").tolist() == [0, 2, 2, -0, -2]
+    assert Q.quantize(x, 1.0, 0, runtime="tflite-ref").tolist() == [1, 2, 3, -1, -3]
+    assert Q.quantize(x, 1.0, 0, runtime="ort-cpu").tolist() == [0, 2, 2, -0, -2]
 
 
 def test_choose_qparams_zero_exact_and_symmetric():
@@ -144,12 +145,12 @@ def test_conv_accumulate_matches_float_conv(depthwise):
     np.testing.assert_array_equal(acc, ref.permute(0, 2, 3, 1).numpy().astype(np.int64))
 
 
-@pytest.mark.parametrize("profile", PROFILES)
-def test_add_close_to_real_arithmetic(profile):
+@pytest.mark.parametrize("method", ADD_METHODS)
+def test_add_close_to_real_arithmetic(method):
     a = np.repeat(np.arange(-128, 128), 256)
     b = np.tile(np.arange(-128, 128), 256)
     pa, pb, po = (0.02, 5), (0.031, -7), (0.05, -3)
-    got = Q.add(a, pa, b, pb, po, profile).astype(int)
+    got = Q.add(a, pa, b, pb, po, method).astype(int)
     exact = np.clip(np.round((0.02 * (a - 5) + 0.031 * (b + 7)) / 0.05) - 3, -128, 127)
     assert np.abs(got - exact).max() <= 1
 

@@ -53,7 +53,7 @@ def test_end_to_end(tiny_checkpoint, synthetic_dataset, tmp_path, capsys):
     assert abs(report["delta"]["psnr"]) < 3.0
     info = report["evaluation"]
     assert info["held_out"] is False and info["data"] == str(synthetic_dataset)
-    assert info["int8_runtime"] == "litert_reference" and info["frames"] == 6 and info["max_frames_per_sequence"] == 3
+    assert info["int8_runtime"] == "tflite-ref" and info["frames"] == 6 and info["max_frames_per_sequence"] == 3
     assert {s["sequence"] for s in report["sequences"]} == {"pan", "pan_cut"}
     enc = json.loads((out / "encodings.json").read_text())
     assert enc["layout"] == "NHWC" and report["int16"][0] in enc["activation_encodings"]
@@ -78,7 +78,7 @@ def test_report_uses_the_eval_loop(tiny_checkpoint, synthetic_dataset, tmp_path,
     expected = json.loads(summary.read_text())["methods"]["model"]
     for key in ("psnr", "ssim", "if_ssim"):
         assert report["fp32"][key] == pytest.approx(expected[key], abs=1e-9)
-    assert report["evaluation"]["held_out"] is True and report["evaluation"]["int8_runtime"] == "litert_xnnpack"
+    assert report["evaluation"]["held_out"] is True and report["evaluation"]["int8_runtime"] == "xnnpack"
     assert [s["sequence"] for s in report["sequences"]] == ["pan"]
 
 

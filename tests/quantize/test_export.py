@@ -10,7 +10,8 @@ from onnx import numpy_helper
 from mnss_kit.export.npu_files import parse_tflite
 from mnss_kit.quantize.graph import op_graph
 from mnss_kit.quantize.onnx_writer import to_onnx
-from mnss_kit.quantize.runtime import RESOLVERS, OnnxRunner, QuantizedStage, TfliteRunner, dequantize_tensor, quantize_inputs, swap_stage
+from mnss_kit.ops.runtimes import runtime_names
+from mnss_kit.quantize.runtime import OnnxRunner, QuantizedStage, TfliteRunner, dequantize_tensor, quantize_inputs, swap_stage
 
 from .conftest import sqnr
 
@@ -63,7 +64,7 @@ def test_int8_spec_rules(fixture, request):
 
 def test_every_int8_tensor_agrees_within_one_lsb(recon):
     names = recon.graph.activations()
-    lite = TfliteRunner(recon.tflite, "reference", preserve_all=True)
+    lite = TfliteRunner(recon.tflite, "tflite-ref", preserve_all=True)
     ort = OnnxRunner(to_onnx(recon.graph, expose=names))
     differing = 0
     for sample in recon.samples:
@@ -82,13 +83,13 @@ def test_every_op_agrees_within_one_lsb_given_the_same_inputs(gates):
     g = gates.graph
     names = g.activations()
     q = quantize_inputs(g, gates.samples[0])
-    values = TfliteRunner(gates.tflite, "reference", preserve_all=True).run(q, names)
+    values = TfliteRunner(gates.tflite, "tflite-ref", preserve_all=True).run(q, names)
     from mnss_kit.quantize.tflite_writer import to_tflite
 
     for op in g.ops:
         sub = op_graph(g, op)
         inputs = [values[n] for n in sub.inputs]
-        a = TfliteRunner(to_tflite(sub), "reference").run(inputs)[op.outputs[0]]
+        a = TfliteRunner(to_tflite(sub), "tflite-ref").run(inputs)[op.outputs[0]]
         b = OnnxRunner(to_onnx(sub)).run(inputs)[op.outputs[0]]
         assert np.abs(a.astype(int) - b.astype(int)).max() <= 1, op.kind
 
@@ -98,7 +99,7 @@ def test_all_runtimes_run_and_stay_close_to_float(fixture, request):
     q = request.getfixturevalue(fixture)
     ref = q.module(*q.example).detach().numpy().transpose(0, 2, 3, 1)
     out = q.graph.outputs[0]
-    runners = [TfliteRunner(q.tflite, r) for r in RESOLVERS] + [OnnxRunner(to_onnx(q.graph))]
+    runners = [TfliteRunner(q.tflite, r) for r in runtime_names("litert")] + [OnnxRunner(to_onnx(q.graph))]
     for runner in runners:
         got = dequantize_tensor(q.graph, out, runner.run(quantize_inputs(q.graph, [x.numpy() for x in q.example]))[out])
         assert sqnr(ref, got) > 35.0
@@ -116,9 +117,9 @@ def test_swapped_stage_runs_inside_a_float_model(recon):
     pipeline = Pipeline(recon.module)
     xs = [torch.cat([x, x], dim=0) for x in recon.example]  # batch 2: the stage runs sample by sample
     float_out = pipeline(*xs).detach()
-    original = swap_stage(pipeline, "recon", QuantizedStage.build(recon.graph, recon.tflite, "tflite", "xnnpack"))
+    original = swap_stage(pipeline, "recon", QuantizedStage.build(recon.graph, recon.tflite, "xnnpack"))
     int8_out = pipeline(*xs)
     assert original is recon.module and int8_out.shape == float_out.shape
     assert sqnr(float_out.numpy(), int8_out.numpy()) > 35.0
-    onnx_stage = QuantizedStage.build(recon.graph, to_onnx(recon.graph).SerializeToString(), "onnx")
+    onnx_stage = QuantizedStage.build(recon.graph, to_onnx(recon.graph).SerializeToString(), "ort-cpu")
     assert torch.abs(onnx_stage(*xs) - pipeline.recon(*xs)).max() <= 2 * float(recon.graph.tensors[recon.graph.outputs[0]].scale)

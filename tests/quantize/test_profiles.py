@@ -1,21 +1,21 @@
-"""Each numerics profile of mnss_kit.ops.quant reproduces its runtime bit for bit.
+"""Each runtime of mnss_kit.ops.runtimes is reproduced bit for bit by its formulas.
 
 One-op graphs are written with the toolkit's own writers and run in LiteRT
-(reference, optimized builtin, XNNPACK) and ONNX Runtime; the numpy reference
-with the matching profile must give identical integers, and (so the test can
-fail) at least one other profile must not.
+(tflite-ref, tflite-builtin, xnnpack) and ONNX Runtime (ort-cpu); the numpy
+reference with the runtime's formulas must give identical integers, and (so the
+test can fail) at least one other runtime's formula must not.
 """
 
 import numpy as np
 import pytest
 
 from mnss_kit.ops import quant as Q
+from mnss_kit.ops import quant_ops
+from mnss_kit.ops.runtimes import RUNTIMES, runtime_names
 from mnss_kit.quantize.graph import Graph, Op, Tensor
 from mnss_kit.quantize.onnx_writer import to_onnx
-from mnss_kit.quantize.runtime import OnnxRunner, TfliteRunner
+from mnss_kit.quantize.runtime import OnnxRunner, TfliteRunner, open_runner
 from mnss_kit.quantize.tflite_writer import to_tflite
-
-RUNTIMES = {"reference": "tflite_reference", "optimized": "tflite_optimized", "xnnpack": "xnnpack", "onnxruntime": "onnxruntime"}
 
 
 def act(name, shape, scale, zp, dtype="int8"):
@@ -23,9 +23,7 @@ def act(name, shape, scale, zp, dtype="int8"):
 
 
 def run(graph: Graph, inputs, runtime: str) -> np.ndarray:
-    if runtime == "onnxruntime":
-        return OnnxRunner(to_onnx(graph)).run(inputs)[graph.outputs[0]]
-    return TfliteRunner(to_tflite(graph), runtime).run(inputs)[graph.outputs[0]]
+    return open_runner(runtime, to_tflite(graph), to_onnx(graph)).run(inputs)[graph.outputs[0]]
 
 
 def conv_graph(depthwise: bool, seed: int = 0):
@@ -60,8 +58,8 @@ def add_graph(seed: int = 0):
     aq = np.repeat(np.arange(-128, 128), 256).reshape(a.shape).astype(np.int8)  # every pair of inputs
     bq = np.tile(np.arange(-128, 128), 256).reshape(b.shape).astype(np.int8)
 
-    def expected(profile):
-        return Q.add(aq, a.params(), bq, b.params(), y.params(), profile)
+    def expected(formula):
+        return quant_ops.add(aq, a.params(), bq, b.params(), y.params(), formula)
 
     return g, [aq, bq], expected
 
@@ -85,24 +83,24 @@ def table_graph(kind: str):
 def test_conv_requantization_bit_exact(runtime, depthwise):
     g, inputs, expected = conv_graph(depthwise)
     got = run(g, inputs, runtime)
-    np.testing.assert_array_equal(got, expected(RUNTIMES[runtime]))
-    others = [p for p in Q.PROFILES if p != RUNTIMES[runtime]]
-    assert any(np.any(expected(p) != got) for p in others), "the test data must tell the profiles apart"
+    np.testing.assert_array_equal(got, expected(runtime))
+    others = [p for p in RUNTIMES if p != runtime]
+    assert any(np.any(expected(p) != got) for p in others), "the test data must tell the runtimes apart"
 
 
 @pytest.mark.parametrize("runtime", list(RUNTIMES))
 def test_add_bit_exact(runtime):
     g, inputs, expected = add_graph()
     got = run(g, inputs, runtime)
-    np.testing.assert_array_equal(got, expected(RUNTIMES[runtime]))
-    assert any(np.any(expected(p) != got) for p in Q.PROFILES if Q.PROFILES[p].add != Q.PROFILES[RUNTIMES[runtime]].add)
+    np.testing.assert_array_equal(got, expected(RUNTIMES[runtime].add))
+    assert any(np.any(expected(r.add) != got) for r in RUNTIMES.values() if r.add != RUNTIMES[runtime].add)
 
 
 @pytest.mark.parametrize("runtime", list(RUNTIMES))
 @pytest.mark.parametrize("kind", ["LOGISTIC", "TANH"])
 def test_lookup_tables_bit_exact(runtime, kind):
     g, inputs, expected = table_graph(kind)
-    np.testing.assert_array_equal(run(g, inputs, runtime), expected(RUNTIMES[runtime]))
+    np.testing.assert_array_equal(run(g, inputs, runtime), expected(runtime))
 
 
 def test_quantize_op_bit_exact():
@@ -120,16 +118,16 @@ def test_quantize_op_bit_exact():
     y = act("y", x.shape, scale, zp)
     g = Graph({"x": xf, "y": y}, [Op("QUANTIZE", ["x"], ["y"])], ["x"], ["y"])
     model = to_tflite(g)
-    for runtime in ("reference", "optimized", "xnnpack"):
+    for runtime in runtime_names("litert"):
         got = TfliteRunner(model, runtime).run([x])["y"]
-        np.testing.assert_array_equal(got, Q.quantize(x, scale, zp, profile=RUNTIMES[runtime]))
+        np.testing.assert_array_equal(got, quant_ops.quantize(x, (scale, zp), runtime))
     node = helper.make_node("QuantizeLinear", ["x", "s", "z"], ["y"])
     graph = helper.make_graph([node], "q", [helper.make_tensor_value_info("x", TensorProto.FLOAT, [1, 1, 20, 20])],
                               [helper.make_tensor_value_info("y", TensorProto.INT8, [1, 1, 20, 20])],
                               initializer=[numpy_helper.from_array(scale, "s"), numpy_helper.from_array(np.int8(zp), "z")])
     m = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 21)], ir_version=10)
     got = OnnxRunner(m).run([x])["y"]
-    expected = Q.quantize(x, scale, zp, profile="onnxruntime")
+    expected = quant_ops.quantize(x, (scale, zp), "ort-cpu")
     np.testing.assert_array_equal(got, expected)
-    assert np.any(expected != Q.quantize(x, scale, zp, profile="tflite_reference"))
+    assert np.any(expected != quant_ops.quantize(x, (scale, zp), "tflite-ref"))
     onnx.checker.check_model(m)

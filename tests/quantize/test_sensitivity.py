@@ -6,7 +6,8 @@ from mnss_kit.quantize.fakequant import GraphModule, finetune
 from mnss_kit.quantize.graph import op_graph
 from mnss_kit.quantize.onnx_writer import to_onnx
 from mnss_kit.quantize.params import int16_blocker, quantize_graph
-from mnss_kit.quantize.runtime import RESOLVERS, OnnxRunner, TfliteRunner, dequantize_tensor, quantize_inputs
+from mnss_kit.ops.runtimes import runtime_names
+from mnss_kit.quantize.runtime import OnnxRunner, TfliteRunner, dequantize_tensor, quantize_inputs
 from mnss_kit.quantize.sensitivity import choose_int16, only_layer_psnr, tensor_sqnr
 from mnss_kit.quantize.tflite_writer import to_tflite
 
@@ -20,7 +21,7 @@ def test_sqnr_and_single_layer_psnr(recon):
     assert all(20 < v < 80 for v in per_tensor.values())
     only = only_layer_psnr(recon.graph, samples, float_outputs)
     out = recon.graph.outputs[0]
-    lite = TfliteRunner(recon.tflite, "reference")
+    lite = TfliteRunner(recon.tflite, "tflite-ref")
     full = [dequantize_tensor(recon.graph, out, lite.run(quantize_inputs(recon.graph, s))[out]) for s in samples]
     full_psnr = 10 * np.log10(1.0 / np.mean((np.concatenate(full) - np.concatenate([f[out] for f in float_outputs])) ** 2))
     # one quantized tensor alone hurts less than all of them together
@@ -40,15 +41,15 @@ def test_int16_for_sensitive_tensors_runs_everywhere(gates):
     model = to_tflite(g16)
     names = g16.activations()
     q = quantize_inputs(g16, gates.samples[0])
-    ref = TfliteRunner(model, "reference", preserve_all=True).run(q, names)
+    ref = TfliteRunner(model, "tflite-ref", preserve_all=True).run(q, names)
     for op in g16.ops:  # given the same inputs, each op agrees within 1 LSB of its output type
         sub = op_graph(g16, op)
         inputs = [ref[n] for n in sub.inputs]
-        a = TfliteRunner(to_tflite(sub), "reference").run(inputs)[op.outputs[0]]
+        a = TfliteRunner(to_tflite(sub), "tflite-ref").run(inputs)[op.outputs[0]]
         b = OnnxRunner(to_onnx(sub)).run(inputs)[op.outputs[0]]
         assert np.abs(a.astype(int) - b.astype(int)).max() <= 1, op.kind
-    for resolver in RESOLVERS:
-        out = TfliteRunner(model, resolver).run(q)[g16.outputs[0]]
+    for runtime in runtime_names("litert"):
+        out = TfliteRunner(model, runtime).run(q)[g16.outputs[0]]
         assert out.shape == ref[g16.outputs[0]].shape
     # the 16-bit tensors themselves are much closer to float
     sqnr16, _ = tensor_sqnr(gates.float_graph, g16, model, gates.samples[:2])
@@ -69,7 +70,7 @@ def test_fake_quant_executor_matches_litert(recon):
     xs = recon.example
     fq = GraphModule(recon.graph, fake_quant=True)(*xs).detach().numpy().transpose(0, 2, 3, 1)
     out = recon.graph.outputs[0]
-    lite = dequantize_tensor(recon.graph, out, TfliteRunner(recon.tflite, "reference").run(quantize_inputs(recon.graph, [x.numpy() for x in xs]))[out])
+    lite = dequantize_tensor(recon.graph, out, TfliteRunner(recon.tflite, "tflite-ref").run(quantize_inputs(recon.graph, [x.numpy() for x in xs]))[out])
     assert np.abs(fq - lite).max() <= 2 * float(recon.graph.tensors[out].scale)
 
 
@@ -82,5 +83,5 @@ def test_qat_keeps_activation_parameters(recon):
     assert np.mean(losses[-10:]) < np.mean(losses[:10])
     ref = recon.module(*recon.example).detach().numpy().transpose(0, 2, 3, 1)
     out = trained.outputs[0]
-    got = dequantize_tensor(trained, out, TfliteRunner(to_tflite(trained), "reference").run(quantize_inputs(trained, [x.numpy() for x in recon.example]))[out])
+    got = dequantize_tensor(trained, out, TfliteRunner(to_tflite(trained), "tflite-ref").run(quantize_inputs(trained, [x.numpy() for x in recon.example]))[out])
     assert sqnr(ref, got) > 35.0

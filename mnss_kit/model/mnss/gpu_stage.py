@@ -20,7 +20,6 @@ import numpy as np
 
 from ...errors import UserError
 from .config import MNSSConfig, aa_input_channels
-from ...ops import quant
 from ...gpu.plan import NpuBoundary
 from ...gpu.weights import Conv3x3
 

@@ -46,7 +46,7 @@ final class MiniBundle {
           "npu": {"model": "npu.tflite", "onnx": "npu_qdq.onnx", "layout": "NHWC", "inputs": ["in"], "outputs": ["out"],
             "tensors": [{"name": "in", "shape": [1, 4, 8, 3], "dtype": "int8", "scale": 0.003921568859368563, "zero_point": -128},
                         {"name": "out", "shape": [1, 4, 8, 3], "dtype": "int8", "scale": 0.00390625, "zero_point": -128}],
-            "requantization_profile": "tflite_reference", "quantization": {}},
+            "requantization_profile": "tflite-ref", "quantization": {}},
           "boundary": [%BOUNDARY_IN%, %BOUNDARY_OUT%],
           "resources": [
             {"name": "depth", "kind": "texture2d", "size": [4, 2], "format": "r32f", "role": "input"},
@@ -68,7 +68,7 @@ final class MiniBundle {
             "end_of_frame": [{"swap": ["depth", "prev_depth"]}],
             "reset": "skip warp on a reset frame", "barriers": "between steps"},
           "placement": null,
-          "golden": {"profile": "tflite_reference", "source": "hand-written", "tolerances": {"npu_input_lsb": 1, "npu_output_lsb": 1, "display_codes": 1},
+          "golden": {"profile": "tflite-ref", "source": "hand-written", "tolerances": {"npu_input_lsb": 1, "npu_output_lsb": 1, "display_codes": 1},
             "frames": [{"index": 0, "reset": true, "jitter": [-0.25, -0.25], "subpixel": [0, 0], "jitter_index": 0, "arrays": {
               "color": {"file": "golden/frame_000/color.bin", "dtype": "float16", "shape": [2, 4, 3]},
               "depth": {"file": "golden/frame_000/depth.bin", "dtype": "float32", "shape": [2, 4, 1]},
