@@ -13,7 +13,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from mnss_kit.errors import UserError
-from mnss_kit.model.config import ModelConfig
+from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model
 from mnss_kit.model.macs import MacReport
 from mnss_kit.quantize.trace import trace
@@ -64,7 +64,7 @@ def stage_inputs(model) -> dict[str, list[torch.Tensor]]:
 @pytest.mark.parametrize("history_at_samples", [False, True])
 def test_every_stage_split_calls_npu_eligible_is_traced_by_quantize(history_at_samples):
     torch.manual_seed(0)
-    config = ModelConfig(recon_width=4, recon_layers=2, aa_width=4, aa_layers=2, aa_history_at_samples=history_at_samples)
+    config = MNSSConfig(recon_width=4, recon_layers=2, aa_width=4, aa_layers=2, aa_history_at_samples=history_at_samples)
     model = build_model(config).eval()
     flow = trace_model(model, LR_HW)
     inputs = stage_inputs(model)
@@ -78,9 +78,11 @@ def test_every_stage_split_calls_npu_eligible_is_traced_by_quantize(history_at_s
 
 
 class OneStage(nn.Module):
-    """A one-stage model in the shape split traces (``stages``, ``initial_state``, ``scale``)."""
+    """A one-stage model in the shape split traces (``stages``, ``initial_state``, ``scale``); its
+    frame has the MNSS family's inputs."""
 
     scale = 1
+    config = MNSSConfig()
 
     def __init__(self, net: nn.Module, inputs):
         super().__init__()
