@@ -196,7 +196,13 @@ def check_golden(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
     listed = manifest["files"]
     expected_shapes = golden_shapes(manifest)
     for frame in manifest["golden"]["frames"]:
+        missing = [k for k in expected_shapes if k not in frame["arrays"]]
+        if missing:
+            problems.append(f"manifest.json: golden frame {frame['index']} lacks the arrays {', '.join(missing)}")
         for key, array in frame["arrays"].items():
+            if key not in expected_shapes:
+                problems.append(f"manifest.json: golden frame {frame['index']} holds '{key}', which is no input, "
+                                "boundary or output resource")
             name = array["file"]
             if key in expected_shapes and array["shape"] != expected_shapes[key]:
                 problems.append(f"{name}: golden '{key}' has shape {array['shape']}, the bundle's sizes need {expected_shapes[key]}")
@@ -214,10 +220,17 @@ def check_golden(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
 
 
 def golden_shapes(manifest: dict) -> dict[str, list[int]]:
-    """Shapes of the golden arrays implied by the bundle's LR and HR sizes."""
-    (w, h), (hw, hh) = manifest["lr_size"], manifest["hr_size"]
-    return {"color": [h, w, 3], "depth": [h, w, 1], "motion": [h, w, 2], "npu_input": [1, hh, hw, 3],
-            "npu_output": [1, hh, hw, 3], "display": [hh, hw, 3]}
+    """Shapes of the golden arrays the manifest implies (``export.golden.golden_arrays``): every
+    input resource and the output resource as (height, width, channels), every boundary buffer
+    with the shape of the NPU tensor it carries."""
+    out = {}
+    boundary = {b["buffer"]["resource"]: b["shape"] for b in manifest["boundary"]}
+    for r in manifest["resources"]:
+        if r["role"] in ("input", "output"):
+            out[r["name"]] = [r["size"][1], r["size"][0], r["channels"]]
+        elif r["role"] == "boundary" and r["name"] in boundary:
+            out[r["name"]] = list(boundary[r["name"]])
+    return out
 
 
 def check_schedule(manifest: dict) -> list[str]:

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from ..model.families import npu_module
+from ..model.families import family_of, npu_module
 from ..fileio import read_json
 
 log = logging.getLogger(__name__)
@@ -86,7 +86,7 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
 
     with tempfile.TemporaryDirectory(prefix="mnss-export-calibration-") as tmp:
         root = Path(data) if data else render_calibration_data(Path(tmp), progress)
-        sequences = quantize_command.open_data(root, model.scale)
+        sequences = quantize_command.open_data(root, model.scale, hr_buffers=family_of(model).hr_inputs)
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", CALIBRATION_SAMPLES, root)
         samples = quantize_command.calibration_samples(model, sequences, CALIBRATION_SAMPLES, progress=progress)
     art = quantize_module(npu_module(model), samples, QuantizeOptions(method=method), name=name)

@@ -51,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     check_output(out, "directory")  # before the imports too: they take seconds
 
     from ..model.checkpoint import identity, load
-    from ..model.families import npu_module
+    from ..model.families import family_of, npu_module
     from .artifacts import comparison_table, summary_table
     from .stage import QuantizeOptions, quantize_module, write_artifacts
 
@@ -69,9 +69,9 @@ def run(args: argparse.Namespace) -> int:
     progress = not args.no_progress
     with tempfile.TemporaryDirectory(prefix="mnss-quantize-") as tmp:
         if args.eval_data:  # fail before the slow part
-            open_data(Path(args.eval_data), model.scale, role="evaluation")
+            open_data(Path(args.eval_data), model.scale, "evaluation", family_of(model).hr_inputs)
         data = Path(args.data) if args.data else render_calibration_data(Path(tmp), progress=progress)
-        sequences = open_data(data, model.scale)
+        sequences = open_data(data, model.scale, hr_buffers=family_of(model).hr_inputs)
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", args.frames, data)
         samples = calibration_samples(model, sequences, args.frames, progress=progress)
         options = QuantizeOptions(method=args.method, int16=args.a16, qat_steps=args.qat)
@@ -107,14 +107,15 @@ def render_calibration_data(root: Path, progress: bool) -> Path:
     return root
 
 
-def open_data(root: Path, scale: int, role: str = "calibration"):
-    """Sequences under ``root``, after checking their scale matches the model's."""
+def open_data(root: Path, scale: int, role: str = "calibration", hr_buffers: tuple[str, ...] = ()):
+    """Sequences under ``root``, after checking their scale matches the model's; ``hr_buffers``:
+    the HR G-buffers the model's family reads (``Family.hr_inputs``)."""
     from ..dataset.loader import eval_sequences
     from ..errors import UserError
 
     if not root.is_dir():
         raise UserError(f"{role} data directory not found: {root}")
-    sequences = eval_sequences(root, progress=False)
+    sequences = eval_sequences(root, hr_buffers=hr_buffers, progress=False)
     if not sequences:
         raise UserError(f"no sequences under {root}")
     for seq in sequences:
