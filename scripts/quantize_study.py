@@ -78,7 +78,7 @@ def measure(args, argv: list[str]) -> dict:
     import torch
 
     from mnss_kit.model.checkpoint import load
-    from mnss_kit.quantize.command import calibration_samples, evaluate_int8, evaluation_info, fp32_vs_int8, open_data
+    from mnss_kit.quantize.api import calibration_samples, evaluate_int8, evaluation_info, fp32_vs_int8, open_data
     from mnss_kit.quantize.stage import QuantizeOptions, quantize_module
 
     torch.set_num_threads(args.threads)

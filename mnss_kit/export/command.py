@@ -7,10 +7,11 @@ from pathlib import Path
 
 from ..model.families import placement_modes
 from ..ops.runtimes import DEFAULT_RUNTIME, runtime_names
+from ..quantize.api import METHODS
+from ..split.api import DEFAULT_RESOLUTION_TEXT
 
 HELP = "write a deployment bundle: manifest.json, npu.tflite, npu_qdq.onnx, GPU shaders + weights, golden frames"
-METHODS = ("minmax", "percentile", "entropy", "mse")  # quantize.command.METHODS
-DEFAULT_RESOLUTION = "1280x720"
+
 DEFAULT_GOLDEN_FRAMES = 3
 
 
@@ -22,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="with a quantize directory: the checkpoint it was quantized from (GPU weights and config; its SHA-256 "
                              "must match the one report.json records; default: the path recorded there)")
     parser.add_argument("--resolution", metavar="WxH",
-                        help=f"output (HR) size the bundle runs at (default {DEFAULT_RESOLUTION}; a quantize directory fixes it)")
+                        help=f"output (HR) size the bundle runs at (default {DEFAULT_RESOLUTION_TEXT}; a quantize directory fixes it)")
     parser.add_argument("--device", metavar="NAME", help="device profile (configs/devices): records the GPU/NPU placement and estimates")
     parser.add_argument("--placement", choices=placement_modes(), default="default", help="placement mode for --device (default: the model's split)")
     parser.add_argument("--data", metavar="DIR",

@@ -23,7 +23,6 @@ from ..fileio import read_json
 
 log = logging.getLogger(__name__)
 QUANTIZED_DIR_FILES = ("npu.tflite", "npu_qdq.onnx", "encodings.json", "report.json")  # what mnss-kit quantize writes, report.md aside
-CALIBRATION_SAMPLES = 24  # the quantize command's default
 
 
 @dataclass
@@ -79,16 +78,17 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
     """
     import tempfile
 
-    from ..quantize import command as quantize_command
+    from ..quantize import api as quantize_api
     from ..quantize.onnx_writer import to_onnx
     from ..quantize.stage import QuantizeOptions, quantize_module
     from ..quantize.tflite_writer import to_tflite
 
     with tempfile.TemporaryDirectory(prefix="mnss-export-calibration-") as tmp:
-        root = Path(data) if data else render_calibration_data(Path(tmp), progress)
-        sequences = quantize_command.open_data(root, model.scale, hr_buffers=family_of(model).hr_inputs)
-        log.info("recording %d NPU-stage inputs from recurrent runs on %s", CALIBRATION_SAMPLES, root)
-        samples = quantize_command.calibration_samples(model, sequences, CALIBRATION_SAMPLES, progress=progress)
+        root = Path(data) if data else quantize_api.render_calibration_data(Path(tmp), progress, with_reference=False)
+        sequences = quantize_api.open_data(root, model.scale, hr_buffers=family_of(model).hr_inputs)
+        samples_wanted = quantize_api.CALIBRATION_SAMPLES
+        log.info("recording %d NPU-stage inputs from recurrent runs on %s", samples_wanted, root)
+        samples = quantize_api.calibration_samples(model, sequences, samples_wanted, progress=progress)
     art = quantize_module(npu_module(model), samples, QuantizeOptions(method=method), name=name)
     graph = retarget(art.graph, npu_module(model), hr_size)
     calibrated_at = list(art.graph.tensors[art.graph.inputs[0]].shape[1:3][::-1])
@@ -97,26 +97,11 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
         "source": "checkpoint",
         "method": method,
         "calibration_samples": len(samples),
-        "calibration_data": str(data) if data else f"rendered configs/data/{quantize_command.DEFAULT_DATA_CONFIG}.yaml",
+        "calibration_data": str(data) if data else f"rendered configs/data/{quantize_api.DEFAULT_DATA_CONFIG}.yaml",
         "calibrated_at_size": calibrated_at,
         **report_summary(report),
     }
     return NpuArtifacts(to_tflite(graph), to_onnx(graph).SerializeToString(), quantization)
-
-
-def render_calibration_data(root: Path, progress: bool) -> Path:
-    """The frames ``mnss-kit quantize`` calibrates on by default, rendered into ``root``.
-
-    Calibration spreads :data:`CALIBRATION_SAMPLES` frames over every sequence of the default
-    data config, rendered with one HR sample per pixel: LR frames do not depend on the HR
-    sample count, and the unused HR reference is what makes the full render slow.
-    """
-    from ..quantize.command import DEFAULT_DATA_CONFIG
-    from ..render.config import load_render_config
-    from ..render.writer import render_dataset
-
-    render_dataset(load_render_config(DEFAULT_DATA_CONFIG, ["hr_samples=1"]), root, progress=progress)
-    return root
 
 
 def load_quantized_dir(directory: Path) -> tuple[NpuArtifacts, dict]:

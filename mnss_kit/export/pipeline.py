@@ -133,7 +133,7 @@ class _Clock:
 
 
 def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int) -> tuple[int, int]:
-    from ..split.command import parse_resolution, require_scale_multiple
+    from ..split.api import DEFAULT_RESOLUTION, parse_resolution, require_scale_multiple
     from .npu_files import read_tflite
 
     if npu is not None:
@@ -144,8 +144,6 @@ def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int) -
                             f"export from the checkpoint to quantize for another size")
         size = (w, h)
     else:
-        from ..split.plan import DEFAULT_RESOLUTION
-
         size = parse_resolution(request.resolution) if request.resolution else DEFAULT_RESOLUTION
     require_scale_multiple(size, scale)
     return size

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from ..model.families import placement_modes
+from .api import DEFAULT_RESOLUTION_TEXT
 
 HELP = "place each stage on GPU or NPU for a device profile and estimate ms per stage (estimates)"
 
@@ -21,8 +22,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="default (the model's split), all-gpu, aa-on-npu, or auto (lowest estimate)")
     parser.add_argument("--auto", action="store_const", const="auto", dest="placement",
                         help="same as --placement auto")
-    parser.add_argument("--resolution", default="1280x720", metavar="WxH",
-                        help="output (HR) size the estimates are made for (default 1280x720)")
+    parser.add_argument("--resolution", default=DEFAULT_RESOLUTION_TEXT, metavar="WxH",
+                        help=f"output (HR) size the estimates are made for (default {DEFAULT_RESOLUTION_TEXT})")
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the placement as JSON")
 
 
@@ -32,9 +33,11 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         check_output(args.json, "file")
 
+    from .api import load_model, parse_resolution, require_scale_multiple
     from .device import load_device
     from .plan import split_model
     from .report import format_text
+
     resolution = parse_resolution(args.resolution)
     device = load_device(args.device)
     model, name = load_model(args.model)
@@ -44,46 +47,3 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         atomic_write_json(args.json, plan.to_dict())
     return 0
-
-
-def parse_resolution(text: str) -> tuple[int, int]:
-    """``"1280x720"`` -> ``(1280, 720)``."""
-    from ..errors import UserError
-
-    parts = text.lower().split("x")
-    if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
-        raise UserError(f"--resolution must look like 1280x720, got '{text}'")
-    w, h = (int(p) for p in parts)
-    if w < 1 or h < 1:
-        raise UserError(f"--resolution must be positive, got '{text}'")
-    return w, h
-
-
-def require_scale_multiple(size: tuple[int, int], scale: int) -> None:
-    """The one rule for an output (HR) size, in every command that takes one: whole LR pixels."""
-    from ..errors import UserError
-
-    w, h = size
-    if w % scale or h % scale:
-        raise UserError(f"output size {w}x{h} is not a multiple of the model's scale {scale} "
-                        f"(e.g. {w // scale * scale or scale}x{h // scale * scale or scale})")
-
-
-def load_model(name_or_path: str):
-    """``(model, label)`` from a checkpoint (path or shipped name), else from a model config."""
-    from ..errors import UserError
-    from ..model import checkpoint
-    from ..model.config import config_names, load_model_config
-    from ..model.families import build_model
-
-    path = Path(name_or_path)
-    if path.suffix != ".yaml" and (path.is_file() or name_or_path in checkpoint.shipped_names()):
-        model, _ = checkpoint.load(name_or_path)
-        return model, path.stem
-    if path.suffix == ".yaml" or name_or_path in config_names():
-        return build_model(load_model_config(name_or_path)).eval(), f"{path.stem} (config)"
-    shipped = ", ".join(checkpoint.shipped_names()) or "none shipped"
-    raise UserError(
-        f"no model '{name_or_path}': give a checkpoint path, a shipped name ({shipped}) "
-        f"or a model config ({', '.join(config_names())})"
-    )

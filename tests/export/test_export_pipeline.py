@@ -93,7 +93,7 @@ def test_golden_frames_are_rendered_when_no_data_has_the_bundle_size(tiny_ckpt, 
 def test_command_choices_mirror_their_sources():
     """The CLI lists choices without importing the heavy modules that define them."""
     from mnss_kit.export import command
-    from mnss_kit.quantize.command import METHODS
+    from mnss_kit.quantize.api import METHODS
 
     assert command.METHODS == METHODS
 
