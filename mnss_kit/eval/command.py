@@ -41,70 +41,14 @@ def run(args: argparse.Namespace) -> int:
         if path:
             check_output(path, kind)
 
-    from ..dataset import format as fmt
-    from ..errors import UserError
-    from .methods import default_methods
+    from .api import evaluate_model
     from .report import format_table, write_csv, write_json
-    from .run import evaluate
-    model, info = _load_model(args.model, args.data)
-    scale = info["scale"] if info else fmt.read_meta(fmt.find_sequences(args.data)[0]).scale
-    available = default_methods(model, scale)
-    wanted = args.methods or list(available)
-    missing = [m for m in wanted if m not in available]
-    if missing:
-        raise UserError(f"method(s) {', '.join(missing)} need a model (MODEL is 'none')")
-    methods = {name: available[name] for name in wanted}
-    result = evaluate(
-        methods,
-        args.data,
-        scale=scale,
-        max_frames=args.max_frames,
-        flip=args.flip,
-        crops_dir=args.crops,
-        progress=not args.no_progress,
-        model_info=info,
-    )
+
+    result = evaluate_model(args.model, args.data, args.methods, max_frames=args.max_frames, flip=args.flip,
+                            crops_dir=args.crops, progress=not args.no_progress)
     if args.csv:
         write_csv(args.csv, result["per_frame"])
     if args.json:
         write_json(args.json, result)
     print(format_table(result))
     return 0
-
-
-def _load_model(name_or_path: str, data_dir: str):
-    """``(model, info)`` from a checkpoint, or ``(None, None)`` for 'none'."""
-    if name_or_path.lower() == "none":
-        return None, None
-    import logging
-
-    from ..dataset import format as fmt
-    from ..errors import UserError
-    from ..model.checkpoint import load
-    from ..model.macs import count_macs
-
-    model, record = load(name_or_path)
-    scale = int(record.get("scale") or model.scale)
-    meta = fmt.read_meta(fmt.find_sequences(data_dir)[0])
-    if meta.scale != scale:
-        raise UserError(f"{data_dir}: data is x{meta.scale} but the model is x{scale}")
-    pattern = record.get("jitter_pattern")
-    if pattern and pattern != meta.jitter_pattern:
-        logging.getLogger(__name__).warning(
-            "model trained with the '%s' jitter pattern, data uses '%s'", pattern, meta.jitter_pattern)
-    macs = record.get("macs") or count_macs(model).to_dict()
-    info = {
-        "name": record.get("name") or Path(name_or_path).stem,
-        "source": str(name_or_path),
-        "family": record.get("family"),
-        "scale": scale,
-        "jitter_pattern": pattern,
-        "parameters": sum(p.numel() for p in model.parameters()),
-        "macs_per_pixel": macs["macs_per_pixel"],
-        "npu_macs_per_pixel": macs.get("npu_macs_per_pixel"),
-        "gpu_macs_per_pixel": macs.get("gpu_macs_per_pixel"),
-        "config": record.get("config"),
-        "data_fingerprint": record.get("data_fingerprint"),
-        "code_version": record.get("code_version"),
-    }
-    return model, info

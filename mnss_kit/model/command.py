@@ -15,6 +15,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import json
 
+    from .listing import checkpoint_rows, config_rows
+
     rows = checkpoint_rows()
     listing = {"checkpoints": rows}
     if args.configs or not rows:
@@ -31,46 +33,6 @@ def run(args: argparse.Namespace) -> int:
         print("\nModel configs (configs/models/):")
         print(_table(listing["configs"], ("name", "family", "scale", "macs_per_pixel", "npu_macs_per_pixel", "params")))
     return 0
-
-
-def checkpoint_rows() -> list[dict]:
-    from .checkpoint import read_record, resolve, shipped_names
-
-    rows = []
-    for name in shipped_names():
-        record, _ = read_record(name)
-        rows.append(
-            {
-                "name": name,
-                "scale": record.get("scale"),
-                "macs_per_pixel": round(record.get("macs_per_pixel") or 0),
-                "params": record.get("params"),
-                "path": str(resolve(name)),
-            }
-        )
-    return rows
-
-
-def config_rows() -> list[dict]:
-    from .config import config_names, load_model_config
-    from .families import build_model
-    from .macs import count_macs
-
-    rows = []
-    for name in config_names():
-        config = load_model_config(name)
-        report = count_macs(build_model(config))
-        rows.append(
-            {
-                "name": name,
-                "family": config.family,
-                "scale": config.scale,
-                "macs_per_pixel": round(report.total),
-                "npu_macs_per_pixel": round(report.by_placement("npu")),
-                "params": report.params,
-            }
-        )
-    return sorted(rows, key=lambda r: (r["scale"], r["macs_per_pixel"]))
 
 
 def _table(rows: list[dict], columns: tuple[str, ...]) -> str:
