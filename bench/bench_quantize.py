@@ -1,14 +1,7 @@
 """NPU-stage latency, int8 vs fp32, in ONNX Runtime and LiteRT on this CPU; model sizes; JSON out.
 
-The reconstruction stage (``model.recon``) of a model config is traced,
-calibrated on random inputs (latency does not depend on the values) and
-written as int8 (``npu.tflite``, ``npu_qdq.onnx``) and as fp32 (the float
-graph through the same writers).  Each runtime then runs int8 and fp32
-interleaved, one call each per round, so both see the same machine load; the
-ratio is of the medians of one run.  LiteRT runs with the optimized builtin
-kernels and with XNNPACK (AUTO); the reference kernels are far too slow to
-time at this size.  The fp32 LiteRT model omits the final clamp, which has
-no fused float form (a few thousand cycles at most).
+The measurement is :func:`mnss_kit.bench.latency.npu_latency` (int8 and fp32 timed side by side
+in one run) on the NPU stage of a model config with its initial weights.
 
     python bench/bench_quantize.py --out bench/results/quantize.json
 """
@@ -18,34 +11,14 @@ from __future__ import annotations
 import argparse
 import json
 import platform
-import statistics
-import time
 from pathlib import Path
 
-import numpy as np
 import torch
 
+from mnss_kit.bench.latency import npu_latency, npu_stage_files
 from mnss_kit.fileio import atomic_write_json
 from mnss_kit.model.config import load_model_config
-from mnss_kit.model.families import build_model
-from mnss_kit.quantize.calibrate import calibrate
-from mnss_kit.quantize.onnx_writer import to_onnx
-from mnss_kit.quantize.params import quantize_graph
-from mnss_kit.quantize.runtime import OnnxRunner, TfliteRunner, quantize_inputs
-from mnss_kit.quantize.tflite_writer import to_tflite
-from mnss_kit.quantize.trace import trace
-
-
-def interleaved_medians(fns: dict, repeats: int, warmup: int) -> dict[str, float]:
-    """Median seconds of each callable, calling them in turn ``repeats`` times after ``warmup`` rounds."""
-    times = {k: [] for k in fns}
-    for i in range(warmup + repeats):
-        for name, fn in fns.items():
-            start = time.perf_counter()
-            fn()
-            if i >= warmup:
-                times[name].append(time.perf_counter() - start)
-    return {k: statistics.median(v) for k, v in times.items()}
+from mnss_kit.model.families import build_model, npu_module
 
 
 def main() -> int:
@@ -60,33 +33,12 @@ def main() -> int:
     args = parser.parse_args()
 
     torch.manual_seed(0)
-    model = build_model(load_model_config(args.model)).eval()
-    rng = np.random.default_rng(0)
-    samples = [[rng.random((1, 3, args.height, args.width), dtype=np.float32)] for _ in range(2)]
-    float_graph = trace(model.recon, [torch.from_numpy(samples[0][0])])
-    int8_graph = quantize_graph(float_graph, calibrate(float_graph, samples, "minmax"))
-
-    files = {
-        "int8_tflite": to_tflite(int8_graph),
-        "fp32_tflite": to_tflite(float_graph),
-        "int8_qdq_onnx": to_onnx(int8_graph).SerializeToString(),
-        "fp32_onnx": to_onnx(float_graph, quantize=False).SerializeToString(),
-    }
-    x_float = [np.ascontiguousarray(samples[0][0].transpose(0, 2, 3, 1))]
-    x_int8 = quantize_inputs(int8_graph, samples[0])
-    runners = {}
-    for runtime in ("tflite-builtin", "xnnpack"):
-        runners[runtime] = (
-            TfliteRunner(files["int8_tflite"], runtime, num_threads=args.threads),
-            TfliteRunner(files["fp32_tflite"], runtime, num_threads=args.threads),
-        )
-    runners["ort-cpu"] = (OnnxRunner(files["int8_qdq_onnx"], num_threads=args.threads), OnnxRunner(files["fp32_onnx"], num_threads=args.threads))
-
-    latency = {}
-    for name, (int8_runner, fp32_runner) in runners.items():
-        med = interleaved_medians({"int8": lambda r=int8_runner: r.run(x_int8), "fp32": lambda r=fp32_runner: r.run(x_float)}, args.repeats, args.warmup)
-        latency[name] = {"int8_ms": med["int8"] * 1e3, "fp32_ms": med["fp32"] * 1e3, "fp32_over_int8": med["fp32"] / med["int8"]}
-        print(f"{name:20s} int8 {latency[name]['int8_ms']:8.2f} ms  fp32 {latency[name]['fp32_ms']:8.2f} ms  fp32/int8 {latency[name]['fp32_over_int8']:.2f}")
+    module = npu_module(build_model(load_model_config(args.model)).eval())
+    hr_size = (args.width, args.height)
+    latency = npu_latency(module, hr_size, args.repeats, args.warmup, args.threads)
+    for name, t in latency.items():
+        print(f"{name:20s} int8 {t['int8_ms']:8.2f} ms  fp32 {t['fp32_ms']:8.2f} ms  fp32/int8 {t['fp32_over_int8']:.2f}")
+    files, int8_graph, _ = npu_stage_files(module, hr_size)
 
     result = {
         "benchmark": "quantize",

@@ -29,6 +29,7 @@ COMMANDS = {
     "export": "mnss_kit.export.command",
     "bundle": "mnss_kit.export.bundle_command",
     "emulate": "mnss_kit.emulate.command",
+    "bench": "mnss_kit.bench.command",
 }
 
 

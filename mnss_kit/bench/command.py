@@ -1,0 +1,42 @@
+"""``mnss-kit bench``: speed against accuracy for every model, in fp32 and int8, with charts."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+HELP = "bench every shipped and trained model (fp32 and int8) and the baselines: quality vs cost JSON and charts"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", type=Path, default=Path("bench/results/bench.json"), help="bench JSON (default: %(default)s)")
+    parser.add_argument("--charts", type=Path, help="directory for the PNG charts (default: beside --out)")
+    parser.add_argument("--work", type=Path, default=Path("bench/results/work"),
+                        help="rendered data sets and bundles, reused between runs (default: %(default)s)")
+    parser.add_argument("--models", nargs="+", metavar="MODEL",
+                        help="checkpoints or shipped names (default: every shipped checkpoint and runs/*/model.pt)")
+    parser.add_argument("--data", type=Path, help="held-out data set (default: render test_x2, or tiny_test with --quick)")
+    parser.add_argument("--devices", nargs="+", metavar="NAME", help="device profiles (default: every shipped one)")
+    parser.add_argument("--quick", action="store_true", help="a shortened run on small sequences (its charts say so)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..fileio import check_output
+
+    charts = args.charts or args.out.parent / "charts"
+    for path, kind in ((args.out, "file"), (charts, "into"), (args.work, "into")):
+        check_output(path, kind)
+
+    from .charts import write_charts
+    from .run import BenchRequest, run_bench
+
+    doc = run_bench(BenchRequest(out=args.out, work=args.work, models=args.models, data=args.data, quick=args.quick,
+                                 devices=args.devices, progress=not args.no_progress))
+    written = write_charts(doc, charts)
+    for key, r in doc["records"].items():
+        cpu = (r.get("cpu_ms") or {}).get("xnnpack")
+        print(f"{key:28s} PSNR {r['psnr']:6.2f}  SSIM {r['ssim']:.4f}  IF-SSIM {r['if_ssim']:.4f}  "
+              f"MACs/px {r['macs_per_pixel']:8.0f}  " + (f"CPU {cpu:7.2f} ms" if cpu is not None else ""))
+    print(f"wrote {args.out} and {len(written)} charts in {charts}")
+    return 0

@@ -1,0 +1,225 @@
+"""The bench run: every model in fp32 and int8 and the baselines, quality against cost, into one JSON.
+
+Per model (shipped checkpoints, and every ``runs/*/model.pt`` a ladder config was trained into):
+
+* quality on the held-out frames (``mnss-kit eval``'s loop): fp32, and int8 with the NPU stage
+  quantized on the calibration data and run in LiteRT's reference kernels;
+* int8 through the deployment path: the bundle ``mnss-kit export`` writes, run by the emulator
+  (``emulated_psnr``, ``emulated_frame_s``: the desktop emulator's time, not a phone's);
+* cost: MACs per output pixel, parameters, the NPU stage's median CPU latency in LiteRT and ONNX
+  Runtime with int8 and fp32 timed side by side (:mod:`.latency`), and the estimated frame
+  milliseconds on every shipped device profile (``mnss-kit split``; estimates).
+
+The JSON is rewritten atomically after every model, so a killed run continues with the records
+it has; records made with other settings (another data set, ``--quick`` or not) are not reused.
+"""
+
+from __future__ import annotations
+
+import logging
+import statistics
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from ..errors import UserError
+from ..fileio import atomic_write_json, read_json
+from .records import record_key, record_problems
+
+log = logging.getLogger(__name__)
+FORMAT, VERSION = "mnss-kit-bench", 1
+BASELINES = ("bicubic", "taau")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What the numbers depend on; a bench file made with other settings is not resumed."""
+
+    quick: bool
+    data: str  # the held-out data set (a render config name, or a directory)
+    max_frames: int | None  # per sequence
+    latency_size: tuple[int, int]  # HR (w, h) the NPU stage is timed at
+    latency_repeats: int
+    emulated_frames: int  # per sequence through the bundle
+    devices: tuple[str, ...]
+
+
+QUICK = dict(data="tiny_test", max_frames=8, latency_size=(320, 180), latency_repeats=3, emulated_frames=3)
+FULL = dict(data="test_x2", max_frames=None, latency_size=(1280, 720), latency_repeats=10, emulated_frames=8)
+
+
+@dataclass
+class BenchRequest:
+    out: Path = Path("bench/results/bench.json")
+    work: Path = Path("bench/results/work")  # rendered data sets and bundles, reused between runs
+    models: list[str] | None = None  # checkpoint paths or shipped names (default: module docstring)
+    data: Path | None = None  # held-out data set (default: render the settings' config into ``work``)
+    quick: bool = False
+    devices: list[str] | None = None  # device profiles (default: every shipped one)
+    progress: bool = True
+    settings: Settings | None = field(default=None, init=False)
+
+
+def default_models(runs: Path = Path("runs")) -> list[str]:
+    """The shipped checkpoints, then every trained run under ``runs``."""
+    from ..model.checkpoint import shipped_names
+
+    trained = sorted(str(p) for p in runs.glob("*/model.pt")) if runs.is_dir() else []
+    return [*shipped_names(), *trained]
+
+
+def run_bench(request: BenchRequest) -> dict:
+    """Bench every model of ``request``; returns the bench document (also written to ``request.out``)."""
+    from ..split.device import device_names
+
+    preset = QUICK if request.quick else FULL
+    devices = tuple(request.devices or device_names())
+    settings = Settings(quick=request.quick, data=str(request.data) if request.data else preset["data"],
+                        max_frames=preset["max_frames"], latency_size=preset["latency_size"],
+                        latency_repeats=preset["latency_repeats"], emulated_frames=preset["emulated_frames"], devices=devices)
+    doc = _resume(request.out, settings)
+    data = request.data or _rendered(preset["data"], request.work / "data", request.progress)
+    calibration = _calibration_data(request.work / "data", request.progress)
+    models = request.models or default_models()
+    steps = [None, *models]  # None: the baselines
+    if request.progress:
+        from tqdm import tqdm
+
+        steps = tqdm(steps, desc="bench", unit="model")
+    for name in steps:
+        if name is None:
+            new = [] if all(f"{b}/baseline" in doc["records"] for b in BASELINES) else baseline_records(data, settings)
+        elif all(f"{_label(name)}/{p}" in doc["records"] for p in ("fp32", "int8")):
+            continue
+        else:
+            new = model_records(name, data, calibration, settings, request.work)
+        for record in new:
+            problems = record_problems(record)
+            if problems:
+                raise RuntimeError(f"bench record {record_key(record)}: {problems[0]}")
+            doc["records"][record_key(record)] = record
+        atomic_write_json(request.out, doc)
+    return doc
+
+
+def _resume(out: Path, settings: Settings) -> dict:
+    fresh = {"format": FORMAT, "version": VERSION, "settings": _plain(asdict(settings)), "records": {},
+             "note": "quality on held-out frames; cpu_ms medians of interleaved runs on a shared machine (compare "
+                     "ratios within one run); device_ms are estimates from the device profiles, not measurements"}
+    if not out.is_file():
+        return fresh
+    doc = read_json(out)
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT or doc.get("version") != VERSION:
+        raise UserError(f"{out}: not a bench file of this version (remove it or give another --out)")
+    if doc.get("settings") != fresh["settings"]:
+        log.info("%s was made with other settings; starting afresh", out)
+        return fresh
+    log.info("resuming %s: %d record(s) kept", out, len(doc["records"]))
+    return doc
+
+
+def _plain(value):
+    """Settings as JSON holds them (tuples become lists), so a reread file compares equal."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _label(name: str) -> str:
+    path = Path(name)
+    return path.parent.name if path.name == "model.pt" else path.stem
+
+
+def _rendered(config: str, root: Path, progress: bool) -> Path:
+    """The render config ``config`` rendered into ``root/config`` (once; reused afterwards)."""
+    from ..render.config import load_render_config
+    from ..render.writer import render_dataset
+
+    out = root / config
+    render_dataset(load_render_config(config), out, progress=progress)  # skips frames already present
+    return out
+
+
+def _calibration_data(root: Path, progress: bool) -> Path:
+    from ..quantize.api import render_calibration_data
+
+    out = root / "calibration"
+    return render_calibration_data(out, progress, with_reference=False)
+
+
+def baseline_records(data: Path, settings: Settings) -> list[dict]:
+    from ..dataset import format as fmt
+    from ..eval.baselines import baseline_methods
+    from ..eval.run import evaluate
+
+    scale = fmt.read_meta(fmt.find_sequences(data)[0]).scale
+    result = evaluate(baseline_methods(scale), data, scale=scale, max_frames=settings.max_frames, progress=False)
+    return [{"name": name, "family": "baseline", "precision": "baseline", **_quality(result["methods"][name]),
+             "macs_per_pixel": 0.0, "params": 0, "cpu_ms": None, "device_ms": {}} for name in BASELINES]
+
+
+def model_records(name: str, data: Path, calibration: Path, settings: Settings, work: Path) -> list[dict]:
+    """The fp32 and int8 records of one checkpoint."""
+    from ..eval.methods import model_method
+    from ..eval.run import evaluate
+    from ..model.checkpoint import load
+    from ..model.families import family_of, npu_module
+    from ..model.macs import count_macs
+    from ..quantize.api import calibration_samples, int8_model, open_data, CALIBRATION_SAMPLES
+    from ..quantize.stage import QuantizeOptions, quantize_module
+    from .latency import npu_latency
+
+    model, record = load(name)
+    model.eval()
+    label = _label(name)
+    family = family_of(model)
+    samples = calibration_samples(model, open_data(calibration, model.scale, hr_buffers=family.hr_inputs), CALIBRATION_SAMPLES)
+    art = quantize_module(npu_module(model), samples, QuantizeOptions(), name=label)
+    methods = {"fp32": model_method(model), "int8": model_method(int8_model(model, art))}
+    result = evaluate(methods, data, scale=model.scale, max_frames=settings.max_frames, progress=False)
+    macs = count_macs(model)
+    latency = npu_latency(npu_module(model), settings.latency_size, settings.latency_repeats)
+    cost = {"macs_per_pixel": macs.total, "npu_macs_per_pixel": macs.by_placement("npu"), "params": macs.params,
+            "device_ms": device_estimates(model, settings.devices, settings.latency_size)}
+    common = {"name": label, "family": family.name, "source": str(name), **cost}
+    fp32 = {**common, "precision": "fp32", **_quality(result["methods"]["fp32"]),
+            "cpu_ms": {rt: t["fp32_ms"] for rt, t in latency.items()}}
+    int8 = {**common, "precision": "int8", **_quality(result["methods"]["int8"]),
+            "cpu_ms": {rt: t["int8_ms"] for rt, t in latency.items()},
+            "cpu_fp32_over_int8": {rt: t["fp32_over_int8"] for rt, t in latency.items()},
+            **emulated(name, data, calibration, settings, work / "bundles" / label)}
+    return [fp32, int8]
+
+
+def _quality(summary: dict) -> dict:
+    return {k: summary[k] for k in ("psnr", "ssim", "if_ssim", "temporal_error")}
+
+
+def device_estimates(model, devices: tuple[str, ...], hr_size: tuple[int, int]) -> dict[str, float]:
+    """Estimated frame milliseconds of the default placement on each device profile (estimates)."""
+    from ..split.device import load_device
+    from ..split.dataflow import trace_model
+    from ..split.plan import plan_flow
+
+    flow = trace_model(model)
+    return {d: plan_flow(flow, load_device(d), "default", hr_size).estimated_frame_ms for d in devices}
+
+
+def emulated(name: str, data: Path, calibration: Path, settings: Settings, bundle: Path) -> dict:
+    """The int8 model through its bundle and the emulator: mean PSNR of the displayed frames and the
+    median emulated seconds per frame (the desktop emulator's time)."""
+    from ..dataset import format as fmt
+    from ..emulate.frame_loop import Emulator
+    from ..emulate.sequence import run_dataset
+    from ..export.pipeline import ExportRequest, export
+
+    meta = fmt.read_meta(fmt.find_sequences(data)[0])
+    w, h = meta.lr_size
+    export(ExportRequest(model=name, out=bundle, resolution=f"{w * meta.scale}x{h * meta.scale}", data=calibration,
+                         overwrite=True, progress=False))
+    report = run_dataset(Emulator(bundle), data, frames=settings.emulated_frames)
+    summaries = [s["summary"] for s in report["sequences"].values()]
+    return {"emulated_psnr": statistics.fmean(s["mean_psnr_db"] for s in summaries if "mean_psnr_db" in s),
+            "emulated_frame_s": statistics.median(s["median_seconds_total"] for s in summaries),
+            "emulated_frames": settings.emulated_frames}
