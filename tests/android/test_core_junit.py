@@ -31,6 +31,14 @@ def test_core_has_no_android_imports():
     assert libraries <= {"java.io", "java.math", "java.nio", "java.security", "java.util", "org.json"}
 
 
+def test_phone_code_uses_no_java_api_newer_than_android_26():
+    """javac --release 17 accepts Java 9+ library calls that Android has only from API 30 (minSdk is 26)."""
+    newer = re.compile(r"\b(List|Map|Set)\.(of|copyOf)\(|\.(repeat|strip|isBlank|lines)\(\)?")
+    sources = java_sources("main") + list((ANDROID / "app" / "src" / "main" / "java").rglob("*.java"))
+    offenders = [f"{p.name}: {m.group(0)}" for p in sources for m in newer.finditer(p.read_text())]
+    assert offenders == []
+
+
 def test_android_carries_no_shader_or_model_copies():
     """Shaders and models come from a bundle on the device; android/ holds none (STYLE.md)."""
     suffixes = {".comp", ".glsl", ".tflite", ".onnx", ".bin", ".pt", ".npz"}

@@ -7,6 +7,7 @@ import io.mnsskit.core.Schedule;
 import io.mnsskit.core.SelfTest;
 import io.mnsskit.core.Tensor;
 import java.io.File;
+import java.util.Collections;
 import java.util.LinkedHashMap;
 import java.util.List;
 import java.util.Map;
@@ -63,7 +64,7 @@ final class GlesPipeline implements SelfTest.Pipeline, AutoCloseable {
             throw new BundleException("this app runs NPU models with one input and one output; the manifest lists "
                     + inputs.size() + " and " + manifest.npu.outputs.size());
         }
-        return Map.of(manifest.npu.outputs.get(0), npu.run(inputs.values().iterator().next()));
+        return Collections.singletonMap(manifest.npu.outputs.get(0), npu.run(inputs.values().iterator().next()));
     }
 
     @Override

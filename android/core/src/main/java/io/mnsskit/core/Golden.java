@@ -2,7 +2,9 @@ package io.mnsskit.core;
 
 import java.io.File;
 import java.util.ArrayList;
+import java.util.Arrays;
 import java.util.Collections;
+import java.util.HashMap;
 import java.util.LinkedHashMap;
 import java.util.List;
 import java.util.Map;
@@ -18,10 +20,7 @@ import java.util.Map;
  */
 public final class Golden {
     /** Texture format to the dtype of its golden array (as {@code golden.FORMAT_DTYPES}). */
-    static final Map<String, Tensor.DType> FORMAT_DTYPES = Map.of(
-            "rgba16f", Tensor.DType.FLOAT16, "rg16f", Tensor.DType.FLOAT16, "r16f", Tensor.DType.FLOAT16,
-            "rgba32f", Tensor.DType.FLOAT32, "rg32f", Tensor.DType.FLOAT32, "r32f", Tensor.DType.FLOAT32,
-            "rgba8", Tensor.DType.UINT8);
+    static final Map<String, Tensor.DType> FORMAT_DTYPES = formatDtypes();
 
     public final String profile;
     public final String source;
@@ -120,7 +119,7 @@ public final class Golden {
         List<String> in = new ArrayList<>();
         List<String> buffers = new ArrayList<>();
         List<String> out = new ArrayList<>();
-        for (String role : List.of("input", "boundary", "output")) {
+        for (String role : Arrays.asList("input", "boundary", "output")) {
             for (GpuSection.Resource r : resources) {
                 if (r.role.equals(role)) {
                     expected.put(r.name, r);
@@ -141,6 +140,19 @@ public final class Golden {
         frames = Collections.unmodifiableList(list);
     }
 
+    // Map.of would need Android 11 (API 30); the app runs from API 26.
+    private static Map<String, Tensor.DType> formatDtypes() {
+        Map<String, Tensor.DType> m = new HashMap<>();
+        for (String f : new String[] {"rgba16f", "rg16f", "r16f"}) {
+            m.put(f, Tensor.DType.FLOAT16);
+        }
+        for (String f : new String[] {"rgba32f", "rg32f", "r32f"}) {
+            m.put(f, Tensor.DType.FLOAT32);
+        }
+        m.put("rgba8", Tensor.DType.UINT8);
+        return Collections.unmodifiableMap(m);
+    }
+
     /** The array must have the dtype and shape the resource gives it. */
     private void checkArray(String where, GpuSection.Resource r, Array a) {
         Tensor.DType dtype;
@@ -159,9 +171,9 @@ public final class Golden {
             }
             shape = new int[] {r.size[1], r.size[0], r.channels == 0 ? a.shape[a.shape.length - 1] : r.channels};
         }
-        if (a.dtype != dtype || !java.util.Arrays.equals(a.shape, shape)) {
-            throw new BundleException(where + " is " + a.dtype.id + " " + java.util.Arrays.toString(a.shape) + "; resource '" + r.name
-                    + "' needs " + dtype.id + " " + java.util.Arrays.toString(shape));
+        if (a.dtype != dtype || !Arrays.equals(a.shape, shape)) {
+            throw new BundleException(where + " is " + a.dtype.id + " " + Arrays.toString(a.shape) + "; resource '" + r.name
+                    + "' needs " + dtype.id + " " + Arrays.toString(shape));
         }
     }
 

@@ -2,6 +2,7 @@ package io.mnsskit.core;
 
 import java.io.File;
 import java.util.ArrayList;
+import java.util.Collections;
 import java.util.LinkedHashMap;
 import java.util.List;
 import java.util.Map;
@@ -92,7 +93,7 @@ public final class SelfTest {
         List<TensorComparator.Result> results = new ArrayList<>();
         for (Golden.Frame frame : golden.frames) {
             FrameScheduler.FramePlan plan = scheduler.plan(frame.jitterEntry(), frame.reset);
-            Map<String, Tensor> g = frame.read(bundle, concat(npuIn, npuOut, List.of(golden.output)));
+            Map<String, Tensor> g = frame.read(bundle, concat(npuIn, npuOut, Collections.singletonList(golden.output)));
             Map<String, byte[]> gpuOut = pipeline.beforeNpu(plan, frame.read(bundle, golden.inputs), npuIn);
             Map<String, byte[]> npuResult = byResource(npuStep.outputs, pipeline.npu(byTensor(npuStep.inputs, g)));
             byte[] output = pipeline.afterNpu(plan, copies(g, npuOut), golden.output);
