@@ -2,8 +2,9 @@
 
 The core (android/core/src/main/java) and its JUnit 4 tests (android/core/src/test/java) are
 compiled with javac into a temporary directory; tests run JUnit or the test-only ``ContractTool``
-on it.  The JUnit 4 and Hamcrest jars are looked up at ``MNSS_JUNIT_JAR`` / ``MNSS_HAMCREST_JAR``
-or Debian's paths (``apt-get install -y default-jdk-headless junit4``).
+on it.  The JUnit 4, Hamcrest and org.json jars are looked up at ``MNSS_JUNIT_JAR`` /
+``MNSS_HAMCREST_JAR`` / ``MNSS_ORG_JSON_JAR`` or Debian's paths
+(``apt-get install -y default-jdk-headless junit4 libandroid-json-java``).
 """
 
 from __future__ import annotations
@@ -21,6 +22,11 @@ REPO = Path(__file__).resolve().parents[2]
 CORE = REPO / "android" / "core"
 JUNIT_JAR = Path(os.environ.get("MNSS_JUNIT_JAR", "/usr/share/java/junit4.jar"))
 HAMCREST_JAR = Path(os.environ.get("MNSS_HAMCREST_JAR", "/usr/share/java/hamcrest-core.jar"))
+# org.json as Android ships it (Debian's build of the Android sources; `dpkg -L libandroid-json-java`)
+ORG_JSON_JAR = Path(os.environ.get("MNSS_ORG_JSON_JAR", "/usr/share/java/com.android.json.jar"))
+LIBRARIES = ((JUNIT_JAR, "junit4", "MNSS_JUNIT_JAR"), (HAMCREST_JAR, "junit4", "MNSS_HAMCREST_JAR"),
+             (ORG_JSON_JAR, "libandroid-json-java", "MNSS_ORG_JSON_JAR"))
+LIBRARY_JARS = tuple(jar for jar, _, _ in LIBRARIES)
 JAVA_RELEASE = 17
 PACKAGE = "io.mnsskit.core"
 
@@ -33,7 +39,7 @@ class JavaCore:
 
     @property
     def classpath(self) -> str:
-        return os.pathsep.join([str(self.classes), str(JUNIT_JAR), str(HAMCREST_JAR)])
+        return os.pathsep.join([str(self.classes), *map(str, LIBRARY_JARS)])
 
     def java(self, main: str, *args: str, props: dict[str, str] | None = None, timeout: float = 120) -> subprocess.CompletedProcess:
         flags = [f"-D{k}={v}" for k, v in (props or {}).items()]
@@ -60,9 +66,9 @@ def missing_tools() -> str | None:
     for tool in ("javac", "java"):
         if shutil.which(tool) is None:
             return f"{tool} not found (install a JDK {JAVA_RELEASE}+, e.g. apt-get install -y default-jdk-headless)"
-    for jar in (JUNIT_JAR, HAMCREST_JAR):
+    for jar, package, variable in LIBRARIES:
         if not jar.is_file():
-            return f"{jar} not found (apt-get install -y junit4, or set MNSS_JUNIT_JAR / MNSS_HAMCREST_JAR)"
+            return f"{jar} not found (apt-get install -y {package}, or set {variable})"
     version = subprocess.run(["javac", "-version"], capture_output=True, text=True)
     match = re.search(r"(\d+)", version.stdout + version.stderr)
     if not match or int(match.group(1)) < JAVA_RELEASE:
@@ -78,7 +84,7 @@ def compile_core(out: Path) -> JavaCore:
     """javac the core and its tests into ``out``; fails the test with javac's errors."""
     sources = java_sources("main") + java_sources("test")
     cmd = ["javac", "--release", str(JAVA_RELEASE), "-Xlint:all", "-Werror", "-encoding", "UTF-8", "-d", str(out),
-           "-cp", os.pathsep.join([str(JUNIT_JAR), str(HAMCREST_JAR)]), *map(str, sources)]
+           "-cp", os.pathsep.join(map(str, LIBRARY_JARS)), *map(str, sources)]
     result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     if result.returncode != 0:
         pytest.fail(f"javac failed on android/core:\n{result.stderr[-6000:]}", pytrace=False)

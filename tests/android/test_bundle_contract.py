@@ -17,7 +17,7 @@ from mnss_kit.emulate.compare import compare_dumps
 from mnss_kit.emulate.dump import read_dump
 from mnss_kit.emulate.sequence import run_dataset
 from mnss_kit.export.check import check_files
-from mnss_kit.export.manifest import load_schema
+from mnss_kit.export.manifest import file_table, load_schema, schema_problems
 
 pytestmark = pytest.mark.slow  # the session's export takes ~10 s
 
@@ -105,7 +105,7 @@ def expected_schedule(manifest: dict, frames: int, cuts: set[int]) -> list[dict]
                 physical[a], physical[b] = physical[b], physical[a]
         reset = t == 0 or t in cuts
         entry = table[t % len(table)]
-        prev = entry if reset else previous
+        prev = entry if t == 0 else previous  # the previous frame's entry, also on a cut
         frame_values = {"offset": entry["offset"], "subpixel": entry["subpixel"], "previous_offset": prev["offset"],
                         "previous_subpixel": prev["subpixel"], "reset": [int(reset)]}
         steps = []
@@ -173,6 +173,7 @@ def test_self_test_dump_compares_with_the_emulator_dump(java_core, tiny_bundle, 
     device = tmp_path / "device_dump"
     report = java_core.tool("selftest", str(tiny_bundle), str(device), str(error))
     assert report.strip().endswith("PASSED" if error == 0 else "FAILED"), report
+    assert report.splitlines()[0] == "inputs: " + ",".join(sorted(r["name"] for r in manifest["resources"] if r["role"] == "input"))
     npu_in, npu_out = (b["tensor"] for b in manifest["boundary"])
     dump = read_dump(device)
     assert list(dump.tensors) == [npu_in, npu_out, "display"]
@@ -184,3 +185,43 @@ def test_self_test_dump_compares_with_the_emulator_dump(java_core, tiny_bundle, 
     assert result["tensors"]["display"]["max_lsb"] == 0
     assert result["tensors"][npu_out]["max_lsb"] == error
     assert result["first_diverging"] == (None if error == 0 else {"tensor": npu_out, "frame": 0})
+
+
+def with_extra_input(bundle: Path, manifest: dict, out: Path, name: str = "hr_albedo") -> dict:
+    """A copy of ``bundle`` whose manifest lists one more ``input`` resource (an HR float16 texture
+    no MNSS pass reads) with a golden array per frame, file table and hashes rewritten as export
+    writes them; returns the new manifest."""
+    copy = Path(shutil.copytree(bundle, out))
+    edited = json.loads(json.dumps(manifest))
+    width, height = edited["hr_size"]
+    edited["resources"].insert(1, {"name": name, "kind": "texture2d", "size": [width, height], "format": "rgba16f",
+                                   "channels": 3, "role": "input", "description": "HR albedo G-buffer (test input)"})
+    rng = np.random.default_rng(3)
+    for frame in edited["golden"]["frames"]:
+        file = f"golden/frame_{frame['index']:03d}/{name}.bin"
+        (copy / file).write_bytes(rng.random((height, width, 3)).astype("<f2").tobytes())
+        frame["arrays"][name] = {"file": file, "dtype": "float16", "shape": [height, width, 3]}
+    edited["files"] = file_table(copy)
+    (copy / "manifest.json").write_text(json.dumps(edited, indent=1))
+    return edited
+
+
+def test_java_core_takes_the_inputs_the_manifest_lists(java_core, tiny_bundle, manifest, tmp_path):
+    """Nothing in the Java core is tied to MNSS's inputs: an extra input resource is read, checked
+    and fed to the pipeline; a wrong golden array for it is refused, naming it."""
+    edited = with_extra_input(tiny_bundle, manifest, tmp_path / "bundle")
+    assert schema_problems(edited) == [] and check_files(tmp_path / "bundle", edited) == []
+    assert java_core.tool("verify", str(tmp_path / "bundle")) == ""
+    summary = json.loads(java_core.tool("read", str(tmp_path / "bundle"), str(tmp_path / "log")))
+    assert summary["golden_inputs"] == [r["name"] for r in edited["resources"] if r["role"] == "input"]
+    assert "hr_albedo" in summary["golden_inputs"] and summary["schedule_problems"] == []
+    report = java_core.tool("selftest", str(tmp_path / "bundle"), str(tmp_path / "dump"), "0")
+    assert report.splitlines()[0] == "inputs: color,depth,hr_albedo,motion"
+    assert report.strip().endswith("PASSED"), report
+    assert list(read_dump(tmp_path / "dump").tensors) == [*(b["tensor"] for b in manifest["boundary"]), "display"]
+
+    edited["golden"]["frames"][1]["arrays"]["hr_albedo"]["shape"] = [edited["hr_size"][0], edited["hr_size"][1], 3]
+    (tmp_path / "bundle" / "manifest.json").write_text(json.dumps(edited))
+    result = java_core.java("io.mnsskit.core.ContractTool", "read", str(tmp_path / "bundle"), str(tmp_path / "log2"))
+    assert result.returncode != 0
+    assert "golden/frames/1/arrays/hr_albedo is float16 [64, 48, 3]; resource 'hr_albedo' needs float16 [48, 64, 3]" in result.stderr

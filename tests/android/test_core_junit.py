@@ -24,8 +24,19 @@ def test_every_test_class_is_run():
 
 
 def test_core_has_no_android_imports():
-    offenders = [p.name for p in java_sources("main") if re.search(r"^import\s+(android|androidx|org\.json)\.", p.read_text(), re.M)]
+    """org.json is the one library the core uses: Android ships it, Debian's libandroid-json-java here."""
+    offenders = [p.name for p in java_sources("main") if re.search(r"^import\s+(android|androidx)\.", p.read_text(), re.M)]
     assert offenders == [], "android/core must stay plain Java (it is compiled and tested with javac here)"
+    libraries = {m for p in java_sources("main") for m in re.findall(r"^import\s+(?:static\s+)?([a-z]+\.[a-z]+)\.", p.read_text(), re.M)}
+    assert libraries <= {"java.io", "java.math", "java.nio", "java.security", "java.util", "org.json"}
+
+
+def test_phone_code_uses_no_java_api_newer_than_android_26():
+    """javac --release 17 accepts Java 9+ library calls that Android has only from API 30 (minSdk is 26)."""
+    newer = re.compile(r"\b(List|Map|Set)\.(of|copyOf)\(|\.(repeat|strip|isBlank|lines)\(\)?")
+    sources = java_sources("main") + list((ANDROID / "app" / "src" / "main" / "java").rglob("*.java"))
+    offenders = [f"{p.name}: {m.group(0)}" for p in sources for m in newer.finditer(p.read_text())]
+    assert offenders == []
 
 
 def test_android_carries_no_shader_or_model_copies():

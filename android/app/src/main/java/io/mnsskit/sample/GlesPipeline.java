@@ -2,19 +2,21 @@ package io.mnsskit.sample;
 
 import io.mnsskit.core.BundleException;
 import io.mnsskit.core.FrameScheduler;
-import io.mnsskit.core.GpuSection;
 import io.mnsskit.core.Manifest;
-import io.mnsskit.core.NpuSection;
 import io.mnsskit.core.Schedule;
 import io.mnsskit.core.SelfTest;
 import io.mnsskit.core.Tensor;
 import java.io.File;
+import java.util.Collections;
+import java.util.LinkedHashMap;
+import java.util.List;
+import java.util.Map;
 
 /**
  * A frame on the device: the plan's GPU steps up to the NPU step, the NPU, the GPU steps after
  * it.  Implements the self-test's {@link SelfTest.Pipeline}; an engine integration drives the
- * same objects with {@link FrameScheduler#next(boolean)} once per frame, its own colour, depth
- * and motion textures in the plan's input resources.
+ * same objects with {@link FrameScheduler#next(boolean)} once per frame, its own textures in the
+ * plan's input resources (whatever the manifest lists as {@code input}).
  *
  * <p>GPU -> NPU handoff here is a copy: the packed int8 SSBO is mapped and handed to LiteRT, the
  * output written back with glBufferSubData (the bytes are the tensor, no repacking).  A shipping
@@ -27,53 +29,47 @@ import java.io.File;
  * is described in android/README.md; the numerics do not change.
  */
 final class GlesPipeline implements SelfTest.Pipeline, AutoCloseable {
+    private final Manifest manifest;
     private final GlResources resources;
     private final ComputePasses passes;
     private final NpuRunner npu;
-    private final NpuSection.Boundary npuInput;
-    private final NpuSection.Boundary npuOutput;
-    private final String display;
 
     GlesPipeline(Manifest manifest, File bundle, NpuRunner.Accelerator accelerator) {
+        this.manifest = manifest;
         resources = new GlResources(manifest, bundle);
         passes = new ComputePasses(manifest, bundle);
         npu = new NpuRunner(manifest, bundle, accelerator);
-        npuInput = manifest.boundary("npu_input");
-        npuOutput = manifest.boundary("npu_output");
-        display = outputResource(manifest);
-    }
-
-    private static String outputResource(Manifest m) {
-        for (GpuSection.Resource r : m.resources) {
-            if (r.role.equals("output")) {
-                return r.name;
-            }
-        }
-        throw new BundleException("manifest.json: no resource with role 'output'");
     }
 
     @Override
-    public byte[] beforeNpu(FrameScheduler.FramePlan plan, Tensor color, Tensor depth, Tensor motion) {
-        resources.uploadTexture(plan.physical("color"), color);
-        resources.uploadTexture(plan.physical("depth"), depth);
-        resources.uploadTexture(plan.physical("motion"), motion);
+    public Map<String, byte[]> beforeNpu(FrameScheduler.FramePlan plan, Map<String, Tensor> inputs, List<String> npuInputs) {
+        inputs.forEach((name, tensor) -> resources.uploadTexture(plan.physical(name), tensor));
         for (FrameScheduler.PlannedStep step : plan.steps) {
             if (step.step.kind == Schedule.Kind.NPU) {
                 break;
             }
             passes.dispatch(step, resources);
         }
-        return resources.readBuffer(plan.physical(npuInput.bufferResource), npuInput.count());
+        Map<String, byte[]> out = new LinkedHashMap<>();
+        for (String buffer : npuInputs) {
+            out.put(buffer, resources.readBuffer(plan.physical(buffer), manifest.golden.boundaryOf(buffer).count()));
+        }
+        return out;
+    }
+
+    /** NpuRunner runs a single-input, single-output model (ScheduleCheck and NpuRunner check the model). */
+    @Override
+    public Map<String, byte[]> npu(Map<String, byte[]> inputs) {
+        if (inputs.size() != 1 || manifest.npu.outputs.size() != 1) {
+            throw new BundleException("this app runs NPU models with one input and one output; the manifest lists "
+                    + inputs.size() + " and " + manifest.npu.outputs.size());
+        }
+        return Collections.singletonMap(manifest.npu.outputs.get(0), npu.run(inputs.values().iterator().next()));
     }
 
     @Override
-    public byte[] npu(byte[] input) {
-        return npu.run(input);
-    }
-
-    @Override
-    public byte[] afterNpu(FrameScheduler.FramePlan plan, byte[] npuOutputBytes) {
-        resources.writeBuffer(plan.physical(npuOutput.bufferResource), npuOutputBytes);
+    public byte[] afterNpu(FrameScheduler.FramePlan plan, Map<String, byte[]> npuOutputs, String output) {
+        npuOutputs.forEach((buffer, bytes) -> resources.writeBuffer(plan.physical(buffer), bytes));
         boolean afterNpu = false;
         for (FrameScheduler.PlannedStep step : plan.steps) {
             if (afterNpu) {
@@ -81,7 +77,7 @@ final class GlesPipeline implements SelfTest.Pipeline, AutoCloseable {
             }
             afterNpu |= step.step.kind == Schedule.Kind.NPU;
         }
-        return resources.readRgb8(plan.physical(display));
+        return resources.readRgb8(plan.physical(output));
     }
 
     @Override

@@ -140,7 +140,8 @@ public final class FrameScheduler {
             }
         }
         boolean reset = cameraCut || frameCount == 0;
-        Manifest.JitterEntry previous = reset || previousJitter == null ? jitter : previousJitter;
+        // The previous frame's entry, also on a cut (as mnss_kit/gpu/interpret.py): only the first frame has none.
+        Manifest.JitterEntry previous = previousJitter == null ? jitter : previousJitter;
         List<PlannedStep> steps = new ArrayList<>();
         for (Schedule.Step step : manifest.schedule.steps) {
             if (reset && step.skipOnReset) {

@@ -147,6 +147,8 @@ public final class GpuSection {
         public final int layers;
         /** Size of a buffer in bytes (0 for a texture). */
         public final long bytes;
+        /** Channels a texture holds (of its format's components); 0 when the manifest does not say. */
+        public final int channels;
 
         Resource(Json j) {
             name = j.get("name").asString();
@@ -157,12 +159,15 @@ public final class GpuSection {
                 format = null;
                 layers = 1;
                 bytes = j.get("bytes").asLong();
+                channels = 0;
             } else {
                 size = Manifest.size(j.get("size"));
                 format = j.get("format").asString();
                 Json l = j.opt("layers");
                 layers = l == null ? 1 : l.asInt();
                 bytes = 0;
+                Json c = j.opt("channels");
+                channels = c == null ? 0 : c.asInt();
             }
         }
     }

@@ -1,33 +1,34 @@
 package io.mnsskit.core;
 
+import java.math.BigInteger;
 import java.util.ArrayList;
-import java.util.Collections;
-import java.util.LinkedHashMap;
+import java.util.Iterator;
 import java.util.List;
-import java.util.Map;
 import java.util.Set;
+import java.util.regex.Matcher;
+import java.util.regex.Pattern;
+import org.json.JSONArray;
+import org.json.JSONException;
+import org.json.JSONObject;
+import org.json.JSONTokener;
 
 /**
- * A small JSON reader (RFC 8259) for the bundle manifest, golden and dump indexes; org.json is
- * part of Android, not of plain Java, and the core must run on both.
+ * A value parsed by org.json (the implementation Android ships) that remembers where it was found
+ * ({@code "manifest.json: npu/tensors/0/scale"}), so a missing key or a wrong type becomes a
+ * one-line {@link BundleException} naming it.
  *
- * <p>A parsed value remembers where it was found ({@code "manifest.json: npu/tensors/0/scale"}),
- * so a missing key or a wrong type becomes a one-line {@link BundleException} naming it.
- * Objects keep their key order.  A number written without fraction or exponent is integral
- * ({@link #isIntegral()}) and read exactly as a {@code long}; any other number is read as the
- * nearest {@code double}, which holds every float32 the toolkit writes exactly, so
- * {@link #asFloat()} returns the very float32 the toolkit computed.
+ * <p>A number written without fraction or exponent is integral ({@link #isIntegral()}) and read
+ * exactly as a {@code long}; any other number is read as the nearest {@code double}, which holds
+ * every float32 the toolkit writes exactly, so {@link #asFloat()} returns the very float32 the
+ * toolkit computed.  Readers do not rely on the order of an object's members (Android's org.json
+ * keeps it, the Maven artifact the desktop build tests with does not).  org.json is lenient where
+ * RFC 8259 is strict (unquoted words are read as strings, a trailing comma as a null); the typed
+ * accessors still refuse such a value, naming its path.
  */
 public final class Json {
-    /** The JSON {@code null}, so that a present-but-null value differs from an absent key. */
-    public static final Object NULL = new Object() {
-        @Override
-        public String toString() {
-            return "null";
-        }
-    };
+    private static final Pattern POSITION = Pattern.compile("(?s)(.*?) at character (\\d+)(?: of .*)?");
 
-    private final Object value; // Map<String,Object>, List<Object>, String, Long, Double, Boolean or NULL
+    private final Object value; // JSONObject, JSONArray, String, Number, Boolean, JSONObject.NULL (or null)
     private final String source; // the file name errors start with
     private final String relative; // "npu/tensors/0"; "" for the root
     private final String path; // "manifest.json: npu/tensors/0"
@@ -52,14 +53,36 @@ public final class Json {
      * ({@code "npu/tensors/0/scale"}).  Tests use it to show a reader covers a schema.
      */
     public static Json parse(String text, String source, Set<String> accessLog) {
-        Parser parser = new Parser(text, source);
-        parser.skipSpace();
-        Object value = parser.value();
-        parser.skipSpace();
-        if (parser.pos != text.length()) {
-            throw parser.error("unexpected text after the JSON value");
+        Object value;
+        try {
+            JSONTokener tokener = new JSONTokener(text);
+            value = tokener.nextValue();
+            if (tokener.nextClean() != 0) {
+                throw new BundleException(source + ": not valid JSON (unexpected text after the JSON value)");
+            }
+        } catch (JSONException e) {
+            throw new BundleException(source + ": not valid JSON (" + describe(e, text) + ")", e);
         }
         return new Json(value, source, "", accessLog);
+    }
+
+    /** org.json's message with the position of the offending character as line and column, without the echo of the whole text. */
+    private static String describe(JSONException e, String text) {
+        String message = String.valueOf(e.getMessage());
+        Matcher m = POSITION.matcher(message);
+        if (!m.matches()) {
+            return message.length() > 200 ? message.substring(0, 200) + "..." : message;
+        }
+        // org.json reports the offset after the character it stopped at
+        int at = Math.max(0, Math.min(Integer.parseInt(m.group(2)), text.length()) - 1);
+        int line = 1;
+        int column = 1;
+        for (int i = 0; i < at; i++) {
+            boolean newline = text.charAt(i) == '\n';
+            line += newline ? 1 : 0;
+            column = newline ? 1 : column + 1;
+        }
+        return m.group(1) + " at line " + line + ", column " + column;
     }
 
     public Object raw() {
@@ -72,61 +95,65 @@ public final class Json {
     }
 
     public boolean isObject() {
-        return value instanceof Map;
+        return value instanceof JSONObject;
     }
 
     public boolean isArray() {
-        return value instanceof List;
+        return value instanceof JSONArray;
     }
 
     public boolean isIntegral() {
-        return value instanceof Long;
+        return value instanceof Integer || value instanceof Long || value instanceof BigInteger
+                || value instanceof Short || value instanceof Byte;
     }
 
     public boolean isNull() {
-        return value == NULL;
+        return value == null || value == JSONObject.NULL;
     }
 
     public boolean has(String key) {
-        return object().containsKey(key);
+        return object().has(key);
     }
 
     /** The member {@code key}; throws naming the path if it is absent. */
     public Json get(String key) {
-        Map<String, Object> map = object();
-        if (!map.containsKey(key)) {
+        JSONObject object = object();
+        if (!object.has(key)) {
             throw new BundleException(path + " missing key '" + key + "'");
         }
-        return visit(map.get(key), key);
+        return visit(object.opt(key), key);
     }
 
     /** The member {@code key}, or {@code null} if it is absent or JSON null. */
     public Json opt(String key) {
-        Map<String, Object> map = object();
-        Object v = map.get(key);
-        return v == null || v == NULL ? null : visit(v, key);
+        Object v = object().opt(key);
+        return v == null || v == JSONObject.NULL ? null : visit(v, key);
     }
 
     public List<String> keys() {
-        return new ArrayList<>(object().keySet());
+        List<String> out = new ArrayList<>();
+        for (Iterator<String> it = object().keys(); it.hasNext();) {
+            out.add(it.next());
+        }
+        return out;
     }
 
     public Json at(int index) {
-        List<Object> list = array();
-        if (index < 0 || index >= list.size()) {
-            throw new BundleException(path + " has no element " + index + " (size " + list.size() + ")");
+        JSONArray array = array();
+        if (index < 0 || index >= array.length()) {
+            throw new BundleException(path + " has no element " + index + " (size " + array.length() + ")");
         }
-        return visit(list.get(index), Integer.toString(index));
+        return visit(array.opt(index), Integer.toString(index));
     }
 
     public int size() {
-        return isObject() ? object().size() : array().size();
+        return isObject() ? object().length() : array().length();
     }
 
     /** The elements of an array, each with its own path. */
     public List<Json> items() {
         List<Json> out = new ArrayList<>();
-        for (int i = 0; i < array().size(); i++) {
+        for (int i = 0; i < array().length(); i++) {
             out.add(at(i));
         }
         return out;
@@ -141,7 +168,13 @@ public final class Json {
     }
 
     public long asLong() {
-        return as(Long.class, "an integer");
+        if (!isIntegral()) {
+            throw new BundleException(path + " expected an integer, found " + kind());
+        }
+        if (value instanceof BigInteger && ((BigInteger) value).bitLength() > 63) {
+            throw new BundleException(path + " " + value + " does not fit a 64-bit integer");
+        }
+        return ((Number) value).longValue();
     }
 
     public int asInt() {
@@ -153,10 +186,7 @@ public final class Json {
     }
 
     public double asDouble() {
-        if (value instanceof Long) {
-            return (Long) value;
-        }
-        return as(Double.class, "a number");
+        return as(Number.class, "a number").doubleValue();
     }
 
     /** The number as float32 (the nearest one; exact for values the toolkit wrote from float32). */
@@ -188,20 +218,18 @@ public final class Json {
         return out;
     }
 
-    @SuppressWarnings("unchecked")
-    private Map<String, Object> object() {
-        if (!(value instanceof Map)) {
+    private JSONObject object() {
+        if (!(value instanceof JSONObject)) {
             throw new BundleException(path + " expected an object, found " + kind());
         }
-        return (Map<String, Object>) value;
+        return (JSONObject) value;
     }
 
-    @SuppressWarnings("unchecked")
-    private List<Object> array() {
-        if (!(value instanceof List)) {
+    private JSONArray array() {
+        if (!(value instanceof JSONArray)) {
             throw new BundleException(path + " expected an array, found " + kind());
         }
-        return (List<Object>) value;
+        return (JSONArray) value;
     }
 
     private <T> T as(Class<T> type, String expected) {
@@ -212,11 +240,11 @@ public final class Json {
     }
 
     private String kind() {
-        if (value instanceof Map) return "an object";
-        if (value instanceof List) return "an array";
+        if (value instanceof JSONObject) return "an object";
+        if (value instanceof JSONArray) return "an array";
         if (value instanceof String) return "a string";
-        if (value instanceof Long) return "the integer " + value;
-        if (value instanceof Double) return "the number " + value;
+        if (isIntegral()) return "the integer " + value;
+        if (value instanceof Number) return "the number " + value;
         if (value instanceof Boolean) return value.toString();
         return "null";
     }
@@ -227,228 +255,5 @@ public final class Json {
             accessLog.add(out.relative);
         }
         return out;
-    }
-
-
-    /** Recursive descent over the text; positions in errors are line:column. */
-    private static final class Parser {
-        private static final int MAX_DEPTH = 256;
-        private final String text;
-        private final String source;
-        private int pos;
-        private int depth;
-
-        Parser(String text, String source) {
-            this.text = text;
-            this.source = source;
-        }
-
-        Object value() {
-            if (pos >= text.length()) {
-                throw error("unexpected end of text");
-            }
-            char c = text.charAt(pos);
-            switch (c) {
-                case '{': return object();
-                case '[': return array();
-                case '"': return string();
-                case 't': return literal("true", Boolean.TRUE);
-                case 'f': return literal("false", Boolean.FALSE);
-                case 'n': return literal("null", NULL);
-                default:
-                    if (c == '-' || (c >= '0' && c <= '9')) {
-                        return number();
-                    }
-                    throw error("unexpected character '" + c + "'");
-            }
-        }
-
-        private Map<String, Object> object() {
-            enter();
-            Map<String, Object> map = new LinkedHashMap<>();
-            pos++; // '{'
-            skipSpace();
-            if (peek() == '}') {
-                pos++;
-                depth--;
-                return map;
-            }
-            while (true) {
-                skipSpace();
-                if (peek() != '"') {
-                    throw error("expected a string key");
-                }
-                String key = string();
-                skipSpace();
-                expect(':');
-                skipSpace();
-                if (map.put(key, value()) != null) {
-                    throw error("duplicate key '" + key + "'");
-                }
-                skipSpace();
-                if (peek() == ',') {
-                    pos++;
-                } else {
-                    expect('}');
-                    depth--;
-                    return map;
-                }
-            }
-        }
-
-        private List<Object> array() {
-            enter();
-            List<Object> list = new ArrayList<>();
-            pos++; // '['
-            skipSpace();
-            if (peek() == ']') {
-                pos++;
-                depth--;
-                return Collections.unmodifiableList(list);
-            }
-            while (true) {
-                skipSpace();
-                list.add(value());
-                skipSpace();
-                if (peek() == ',') {
-                    pos++;
-                } else {
-                    expect(']');
-                    depth--;
-                    return Collections.unmodifiableList(list);
-                }
-            }
-        }
-
-        private String string() {
-            pos++; // opening quote
-            StringBuilder out = new StringBuilder();
-            while (true) {
-                if (pos >= text.length()) {
-                    throw error("unterminated string");
-                }
-                char c = text.charAt(pos++);
-                if (c == '"') {
-                    return out.toString();
-                }
-                if (c < 0x20) {
-                    throw error("control character in a string");
-                }
-                if (c != '\\') {
-                    out.append(c);
-                    continue;
-                }
-                char e = pos < text.length() ? text.charAt(pos++) : '\0';
-                switch (e) {
-                    case '"': out.append('"'); break;
-                    case '\\': out.append('\\'); break;
-                    case '/': out.append('/'); break;
-                    case 'b': out.append('\b'); break;
-                    case 'f': out.append('\f'); break;
-                    case 'n': out.append('\n'); break;
-                    case 'r': out.append('\r'); break;
-                    case 't': out.append('\t'); break;
-                    case 'u': out.append(hex4()); break; // surrogate pairs arrive as two \\u escapes
-                    default: throw error("bad escape '\\" + e + "'");
-                }
-            }
-        }
-
-        private char hex4() {
-            if (pos + 4 > text.length()) {
-                throw error("truncated \\u escape");
-            }
-            try {
-                char c = (char) Integer.parseInt(text.substring(pos, pos + 4), 16);
-                pos += 4;
-                return c;
-            } catch (NumberFormatException e) {
-                throw error("bad \\u escape");
-            }
-        }
-
-        private Object number() {
-            int start = pos;
-            boolean integral = true;
-            if (peek() == '-') pos++;
-            if (peek() == '0') {
-                pos++;
-            } else if (!digits()) {
-                throw error("bad number");
-            }
-            if (peek() == '.') {
-                pos++;
-                integral = false;
-                if (!digits()) throw error("bad number: digits expected after '.'");
-            }
-            if (peek() == 'e' || peek() == 'E') {
-                pos++;
-                integral = false;
-                if (peek() == '+' || peek() == '-') pos++;
-                if (!digits()) throw error("bad number: digits expected in the exponent");
-            }
-            String literal = text.substring(start, pos);
-            if (integral) {
-                try {
-                    return Long.parseLong(literal);
-                } catch (NumberFormatException tooLarge) {
-                    return Double.parseDouble(literal);
-                }
-            }
-            return Double.parseDouble(literal); // correctly rounded (Java spec)
-        }
-
-        private boolean digits() {
-            int start = pos;
-            while (pos < text.length() && text.charAt(pos) >= '0' && text.charAt(pos) <= '9') pos++;
-            return pos > start;
-        }
-
-        private Object literal(String word, Object result) {
-            if (!text.startsWith(word, pos)) {
-                throw error("unexpected word");
-            }
-            pos += word.length();
-            return result;
-        }
-
-        void skipSpace() {
-            while (pos < text.length()) {
-                char c = text.charAt(pos);
-                if (c != ' ' && c != '\t' && c != '\n' && c != '\r') return;
-                pos++;
-            }
-        }
-
-        private char peek() {
-            return pos < text.length() ? text.charAt(pos) : '\0';
-        }
-
-        private void expect(char c) {
-            if (peek() != c) {
-                throw error("expected '" + c + "'");
-            }
-            pos++;
-        }
-
-        private void enter() {
-            if (++depth > MAX_DEPTH) {
-                throw error("nesting deeper than " + MAX_DEPTH);
-            }
-        }
-
-        BundleException error(String what) {
-            int line = 1;
-            int column = 1;
-            for (int i = 0; i < Math.min(pos, text.length()); i++) {
-                if (text.charAt(i) == '\n') {
-                    line++;
-                    column = 1;
-                } else {
-                    column++;
-                }
-            }
-            return new BundleException(source + ": not valid JSON (" + what + " at line " + line + ", column " + column + ")");
-        }
     }
 }

@@ -2,6 +2,7 @@ package io.mnsskit.core;
 
 import java.util.List;
 import java.util.Map;
+import org.json.JSONObject;
 
 /**
  * Writes plain value trees (maps, lists, strings, numbers, booleans, null) as indented JSON,
@@ -19,7 +20,7 @@ public final class JsonWriter {
     }
 
     private static void write(StringBuilder out, Object value, int indent) {
-        if (value == null || value == Json.NULL) {
+        if (value == null || value == JSONObject.NULL) {
             out.append("null");
         } else if (value instanceof String) {
             quote(out, (String) value);

@@ -185,7 +185,7 @@ public final class Manifest {
         resources = GpuSection.readResources(root.get("resources"));
         schedule = new Schedule(root.get("schedule"));
         placement = root.get("placement").isNull() ? null : root.get("placement");
-        golden = new Golden(root.get("golden"));
+        golden = new Golden(root.get("golden"), resources, boundary);
         Map<String, FileEntry> table = new LinkedHashMap<>();
         Json filesJson = root.get("files");
         for (String name : filesJson.keys()) {

@@ -148,6 +148,16 @@ public final class Schedule {
         barriers = b == null ? "" : b.asString();
     }
 
+    /** The one NPU step ({@link ScheduleCheck} holds that there is exactly one). */
+    public Step npuStep() {
+        for (Step s : steps) {
+            if (s.kind == Kind.NPU) {
+                return s;
+            }
+        }
+        throw new BundleException("manifest.json: schedule has no NPU step");
+    }
+
     private static Map<String, String> strings(Json j) {
         Map<String, String> out = new LinkedHashMap<>();
         for (String key : j.keys()) {

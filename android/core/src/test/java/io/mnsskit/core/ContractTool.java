@@ -19,7 +19,8 @@ import java.util.TreeSet;
  *   verify   BUNDLE                      problems, one per line (nothing: intact)
  *   read     BUNDLE ACCESS_LOG           JSON summary of the parsed manifest; every JSON path read -> ACCESS_LOG
  *   schedule BUNDLE FRAMES CUT,CUT,...   JSON: per frame reset, jitter, step labels, bindings and uniform values
- *   selftest BUNDLE DUMP ERROR           golden echo through SelfTest, NPU output value 7 off by ERROR LSB; report
+ *   selftest BUNDLE DUMP ERROR           golden echo through SelfTest, NPU output value 7 off by ERROR LSB;
+ *                                        the input resources fed ("inputs: a,b"), then the report
  * </pre>
  */
 public final class ContractTool {
@@ -75,6 +76,7 @@ public final class ContractTool {
         }
         out.put("boundary", boundary);
         out.put("golden_frames", m.golden.frames.size());
+        out.put("golden_inputs", m.golden.inputs);
         out.put("files", m.files.size());
         out.put("schedule_problems", ScheduleCheck.problems(m));
         System.out.print(JsonWriter.write(out));
@@ -120,31 +122,41 @@ public final class ContractTool {
     private static void selftest(File bundle, File dump, int error) {
         Manifest m = Manifest.load(bundle);
         int[] frame = {0};
+        Set<String> inputsSeen = new TreeSet<>();
         SelfTest.Pipeline echo = new SelfTest.Pipeline() {
             Golden.Frame current() {
                 return m.golden.frames.get(frame[0]);
             }
 
             @Override
-            public byte[] beforeNpu(FrameScheduler.FramePlan plan, Tensor color, Tensor depth, Tensor motion) {
-                return current().read(bundle, "npu_input", m).data;
-            }
-
-            @Override
-            public byte[] npu(byte[] input) {
-                byte[] out = current().read(bundle, "npu_output", m).data;
-                out[7] = (byte) Math.max(-128, Math.min(127, out[7] + (out[7] > 0 ? -error : error)));
+            public Map<String, byte[]> beforeNpu(FrameScheduler.FramePlan plan, Map<String, Tensor> inputs, List<String> npuInputs) {
+                inputsSeen.addAll(inputs.keySet());
+                Map<String, byte[]> out = new LinkedHashMap<>();
+                for (String r : npuInputs) {
+                    out.put(r, current().read(bundle, r).data);
+                }
                 return out;
             }
 
             @Override
-            public byte[] afterNpu(FrameScheduler.FramePlan plan, byte[] npuOutput) {
-                byte[] display = current().read(bundle, "display", m).data;
+            public Map<String, byte[]> npu(Map<String, byte[]> inputs) {
+                Map<String, byte[]> out = new LinkedHashMap<>();
+                m.schedule.npuStep().outputs.forEach((tensor, resource) -> out.put(tensor, current().read(bundle, resource).data));
+                byte[] first = out.values().iterator().next();
+                first[7] = (byte) Math.max(-128, Math.min(127, first[7] + (first[7] > 0 ? -error : error)));
+                return out;
+            }
+
+            @Override
+            public byte[] afterNpu(FrameScheduler.FramePlan plan, Map<String, byte[]> npuOutputs, String output) {
+                byte[] display = current().read(bundle, output).data;
                 frame[0]++;
                 return display;
             }
         };
-        System.out.println(SelfTest.run(bundle, m, echo, dump).summary());
+        String summary = SelfTest.run(bundle, m, echo, dump).summary();
+        System.out.println("inputs: " + String.join(",", inputsSeen));
+        System.out.println(summary);
     }
 
     private static List<Object> list(int[] values) {

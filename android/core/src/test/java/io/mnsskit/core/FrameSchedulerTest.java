@@ -3,6 +3,7 @@ package io.mnsskit.core;
 import static org.junit.Assert.assertArrayEquals;
 import static org.junit.Assert.assertEquals;
 import static org.junit.Assert.assertFalse;
+import static org.junit.Assert.assertSame;
 import static org.junit.Assert.assertThrows;
 import static org.junit.Assert.assertTrue;
 
@@ -25,6 +26,8 @@ public class FrameSchedulerTest {
         FrameScheduler.FramePlan cut = s.next(true);
         assertTrue(cut.reset);
         assertEquals(2, cut.labels().size());
+        assertSame(first.jitter, first.previousJitter); // no previous frame: its own entry
+        assertSame(second.jitter, cut.previousJitter); // a cut still has one (mnss_kit/gpu/interpret.py)
     }
 
     @Test

@@ -6,6 +6,7 @@ import static org.junit.Assert.assertNull;
 import static org.junit.Assert.assertThrows;
 import static org.junit.Assert.assertTrue;
 
+import java.util.List;
 import org.junit.Test;
 
 public class ManifestTest {
@@ -30,6 +31,22 @@ public class ManifestTest {
         Schedule.UniformSource scale = m.schedule.steps.get(0).uniforms.get("u_scale");
         assertTrue(scale.integral);
         assertEquals(Schedule.FrameValue.PREVIOUS_OFFSET, m.schedule.steps.get(0).uniforms.get("u_prev_jitter").frame);
+    }
+
+    @Test
+    public void goldenArraysFollowTheResources() {
+        Manifest m = MiniBundle.manifest();
+        assertEquals(List.of("color", "depth", "motion"), m.golden.inputs);
+        assertEquals(List.of("npu_input", "npu_output"), m.golden.boundaries);
+        assertEquals("display", m.golden.output);
+        assertEquals(1, m.golden.toleranceFor("npu_output"));
+        String wrongDtype = MiniBundle.manifestText(1).replace("color.bin\", \"dtype\": \"float16\"", "color.bin\", \"dtype\": \"float32\"");
+        BundleException e = assertThrows(BundleException.class, () -> Manifest.parse(wrongDtype, "manifest.json", null));
+        assertTrue(e.getMessage(), e.getMessage().contains("golden/frames/0/arrays/color is float32 [2, 4, 3]; resource 'color' needs float16"));
+        String extraInput = MiniBundle.manifestText(1).replace("\"resources\": [", "\"resources\": [{\"name\": \"albedo\", "
+                + "\"kind\": \"texture2d\", \"size\": [8, 4], \"format\": \"rgba16f\", \"role\": \"input\"}, ");
+        e = assertThrows(BundleException.class, () -> Manifest.parse(extraInput, "manifest.json", null));
+        assertTrue(e.getMessage(), e.getMessage().contains("golden/frames/0/arrays missing golden array 'albedo' (input resource)"));
     }
 
     @Test

@@ -8,7 +8,7 @@ import java.util.Map;
 import java.util.TreeMap;
 
 /**
- * A hand-written bundle for unit tests: LR 4x2, x2, a 4-entry jitter table, two GPU passes
+ * A hand-written bundle for unit tests: LR 4x2, x2, a 4-entry jitter table, three input textures, two GPU passes
  * (one skipped on reset), one NPU step, a depth ping-pong, one weight block and one golden
  * frame.  Its files are written to a directory and listed with their hashes, as export does.
  */
@@ -49,10 +49,13 @@ final class MiniBundle {
             "requantization_profile": "tflite-ref", "quantization": {}},
           "boundary": [%BOUNDARY_IN%, %BOUNDARY_OUT%],
           "resources": [
+            {"name": "color", "kind": "texture2d", "size": [4, 2], "format": "rgba16f", "channels": 3, "role": "input"},
             {"name": "depth", "kind": "texture2d", "size": [4, 2], "format": "r32f", "role": "input"},
+            {"name": "motion", "kind": "texture2d", "size": [4, 2], "format": "rg32f", "channels": 2, "role": "input"},
             {"name": "prev_depth", "kind": "texture2d", "size": [4, 2], "format": "r32f", "role": "state"},
             {"name": "npu_input", "kind": "buffer", "bytes": 96, "words": 24, "role": "boundary"},
-            {"name": "npu_output", "kind": "buffer", "bytes": 96, "words": 24, "role": "boundary"}],
+            {"name": "npu_output", "kind": "buffer", "bytes": 96, "words": 24, "role": "boundary"},
+            {"name": "display", "kind": "texture2d", "size": [8, 4], "format": "rgba8", "channels": 3, "role": "output"}],
           "schedule": {
             "steps": [
               {"kind": "gpu", "pass": "warp_pass", "label": "warp", "stage": "warp",

@@ -5,7 +5,10 @@ import static org.junit.Assert.assertFalse;
 import static org.junit.Assert.assertTrue;
 
 import java.io.File;
+import java.util.ArrayList;
 import java.util.List;
+import java.util.Map;
+import java.util.Set;
 import org.junit.Rule;
 import org.junit.Test;
 import org.junit.rules.TemporaryFolder;
@@ -65,22 +68,28 @@ public class SelfTestTest {
         }
 
         @Override
-        public byte[] beforeNpu(FrameScheduler.FramePlan plan, Tensor color, Tensor depth, Tensor motion) {
+        public Map<String, byte[]> beforeNpu(FrameScheduler.FramePlan plan, Map<String, Tensor> inputs, List<String> npuInputs) {
             assertEquals(frame().reset || frames == 0, plan.reset);
             assertEquals(frame().subpixel[0], plan.jitter.subpixelX);
-            return frame().read(bundle, "npu_input", manifest).data;
+            assertEquals(List.of("color", "depth", "motion"), new ArrayList<>(inputs.keySet()));
+            assertEquals(Tensor.DType.FLOAT16, inputs.get("color").dtype);
+            assertEquals(List.of("npu_input"), npuInputs);
+            return Map.of("npu_input", frame().read(bundle, "npu_input").data);
         }
 
         @Override
-        public byte[] npu(byte[] input) {
-            byte[] out = frame().read(bundle, "npu_output", manifest).data;
+        public Map<String, byte[]> npu(Map<String, byte[]> inputs) {
+            assertEquals(Set.of("in"), inputs.keySet()); // the model's tensor names
+            byte[] out = frame().read(bundle, "npu_output").data;
             out[5] += error;
-            return out;
+            return Map.of("out", out);
         }
 
         @Override
-        public byte[] afterNpu(FrameScheduler.FramePlan plan, byte[] npuOutput) {
-            byte[] display = frame().read(bundle, "display", manifest).data;
+        public byte[] afterNpu(FrameScheduler.FramePlan plan, Map<String, byte[]> npuOutputs, String output) {
+            assertEquals(Set.of("npu_output"), npuOutputs.keySet());
+            assertEquals("display", output);
+            byte[] display = frame().read(bundle, output).data;
             frames++;
             return display;
         }
