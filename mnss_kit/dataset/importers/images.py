@@ -166,9 +166,11 @@ def frame_numbers(folder: Path, pattern: str) -> list[int]:
 
 def write_sequence(folder: Path, numbers: list[int], mapping: ImageMapping, dest: Path) -> None:
     lr_size = None
+    keys = sorted(mapping.buffers, key=lambda k: k != "lr/color")  # lr/color first: it sets the LR size
     for i, number in enumerate(numbers):
-        for key, buf in mapping.buffers.items():
+        for key in keys:
             res, _, name = key.partition("/")
+            buf = mapping.buffers[key]
             path = folder / buf.file.format(frame=number)
             image = decode(path, buf, len(BUFFERS[res][name].channels))
             lr_size = lr_size or (image.shape[1], image.shape[0])
