@@ -164,7 +164,8 @@ def dataset_to_nss(seq_dir: Path, root: Path, sequence: str = "0000") -> None:
         put(f"{ratio}/motion", read_raw_buffer(seq_dir, "lr", "motion", i) / np.float32([lw, lh]))
     frames = [{
         "Frame": i, "FovX": 1.0, "FovY": 0.6, "CameraNearPlane": meta.near, "CameraFarPlane": meta.far,
-        "ViewProjection": [float(v) for v in (np.array(f.proj).reshape(4, 4) @ np.array(f.view).reshape(4, 4)).T.ravel()],
+        # column-major storage of the row-vector matrix (P V)^T: the row-major listing of P V
+        "ViewProjection": [float(v) for v in (np.array(f.proj).reshape(4, 4) @ np.array(f.view).reshape(4, 4)).ravel()],
         "Jitter": {"X": f.jitter[0], "Y": f.jitter[1]},
         "NormalizedPerRatioJitter": [{"X": f.jitter[0] / lw, "Y": f.jitter[1] / lh}],
         "Exposure": meta.exposure, "CameraCut": bool(f.reset and i > 0),

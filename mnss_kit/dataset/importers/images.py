@@ -20,7 +20,7 @@ import numpy as np
 
 from ...config import load_config, resolve_config_path
 from ...errors import UserError
-from ...ops.jitter import jitter_sequence
+from ...ops.jitter import PATTERNS, jitter_sequence
 from ..format import (BUFFERS, FORMAT_NAME, FORMAT_VERSION, REQUIRED_BUFFERS, FrameMeta, MotionConvention, SequenceMeta,
                       write_buffer, write_meta)
 from .imagefiles import read_image
@@ -110,6 +110,8 @@ def load_mapping(name_or_path: str) -> ImageMapping:
                 raise UserError(f"{path}: buffers has no '{res}/{name}' (required: lr/color, lr/depth, lr/motion, hr/reference)")
     for pair, keys in SHARED_CONVENTIONS.items():
         _same(mapping.buffers, pair, keys, str(path))
+    if mapping.jitter.file is None and mapping.jitter.pattern not in PATTERNS:
+        raise UserError(f"{path}: jitter needs a file, or a pattern the offsets are generated from ({', '.join(PATTERNS)})")
     if mapping.scale < 2:
         raise UserError(f"{path}: scale must be an integer >= 2, got {mapping.scale}")
     return mapping
