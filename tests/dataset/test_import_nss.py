@@ -123,3 +123,14 @@ def test_only_fractional_ratios_is_refused(tmp_path, capsys):
     write_nss_capture(tmp_path / "cap", ratios=("1_5",))
     code, _, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
     assert code == 2 and "no integer upscaling ratio (found x1_5)" in err
+
+
+def test_every_sequence_becomes_one_sequence_of_the_ratio_dataset(tmp_path, capsys):
+    first = write_nss_capture(tmp_path / "cap", frames=3, sequence="0000", seed=1)
+    second = write_nss_capture(tmp_path / "cap", frames=4, sequence="0001", seed=2)
+    assert run_import(capsys, tmp_path / "cap", tmp_path / "out")[0] == 0
+    seqs = find_sequences(tmp_path / "out" / "x2")
+    assert [s.name for s in seqs] == ["0000", "0001"]
+    assert [read_meta(s).frame_count for s in seqs] == [3, 4]
+    for seq, cap in zip(seqs, (first, second)):
+        assert np.array_equal(read_raw_buffer(seq, "lr", "motion", 2), cap["x2/motion"][2])
