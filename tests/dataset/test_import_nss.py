@@ -23,7 +23,7 @@ def test_import_reproduces_every_buffer_jitter_and_cut(tmp_path, capsys):
     cap = write_nss_capture(tmp_path / "cap", ratios=("2", "1_5"), frames=5, cut_at=3, exposure=1.5)
     code, out, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
     assert code == 0, err
-    assert "x1_5: fractional ratio 1.5 not imported (not yet trainable" in out
+    assert "x1_5: 5 frames found, not imported: ratio 1.5 is fractional and not yet trainable" in out
     assert not (tmp_path / "out" / "x1_5").exists()
     (seq,) = find_sequences(tmp_path / "out" / "x2")
     meta = read_meta(seq)

@@ -67,8 +67,7 @@ def import_nss(src: str | Path, out: str | Path, overwrite: bool = False) -> Imp
     if not sequences:
         raise UserError(f"{src}: no sequence metadata (NNNN.json) in the NSS capture")
     trainable = [r for r in ratios if r.integer]
-    notes = [f"x{r.name}: fractional ratio {r.value:g} not imported (not yet trainable: the toolkit's models "
-             f"upscale by an integer factor)" for r in ratios if not r.integer]
+    notes = [_fractional_note(src, r, sequences) for r in ratios if not r.integer]
     if not trainable:
         raise UserError(f"{src}: no integer upscaling ratio (found {', '.join('x' + r.name for r in ratios)}); "
                         "the toolkit trains integer scales only")
@@ -82,6 +81,16 @@ def import_nss(src: str | Path, out: str | Path, overwrite: bool = False) -> Imp
     warnings = publish(out, write, overwrite)
     frames = sum(len(d["Frames"]) for d in sequences.values()) * len(trainable)
     return ImportResult([str(Path(out) / f"x{r.name}") for r in trainable], len(sequences), frames, notes, warnings)
+
+
+def _fractional_note(src: Path, ratio: Ratio, sequences: dict[str, dict]) -> str:
+    """What a fractional ratio holds (its frame files counted against ``Frames``) and why it is not written."""
+    for name, data in sequences.items():
+        for buffer in LR_BUFFERS:
+            _frame_files(src / f"x{ratio.name}" / buffer / name, len(data["Frames"]), data["_path"])
+    frames = sum(len(d["Frames"]) for d in sequences.values())
+    return (f"x{ratio.name}: {frames} frames found, not imported: ratio {ratio.value:g} is fractional and not yet "
+            "trainable (the toolkit's models upscale by an integer factor)")
 
 
 def find_ratios(src: Path) -> list[Ratio]:
