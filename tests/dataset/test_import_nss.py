@@ -23,7 +23,7 @@ def test_import_reproduces_every_buffer_jitter_and_cut(tmp_path, capsys):
     cap = write_nss_capture(tmp_path / "cap", ratios=("2", "1_5"), frames=5, cut_at=3, exposure=1.5)
     code, out, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
     assert code == 0, err
-    assert "x1_5: 5 frames found, not imported: ratio 1.5 is fractional and not yet trainable" in out
+    assert "x1_5: 5 frames found, not imported: ratio 1.5 is fractional and is not yet trainable" in out
     assert not (tmp_path / "out" / "x1_5").exists()
     (seq,) = find_sequences(tmp_path / "out" / "x2")
     meta = read_meta(seq)
@@ -122,7 +122,7 @@ def test_bad_captures_fail_in_one_line_and_leave_nothing(tmp_path, capsys, damag
 def test_only_fractional_ratios_is_refused(tmp_path, capsys):
     write_nss_capture(tmp_path / "cap", ratios=("1_5",))
     code, _, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
-    assert code == 2 and "no integer upscaling ratio (found x1_5)" in err
+    assert code == 2 and "no integer upscaling ratio of 2 or more (found x1_5)" in err
 
 
 def test_every_sequence_becomes_one_sequence_of_the_ratio_dataset(tmp_path, capsys):

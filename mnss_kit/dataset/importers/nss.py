@@ -53,8 +53,8 @@ class Ratio:
         return float(self.name.replace("_", "."))
 
     @property
-    def integer(self) -> bool:
-        return "_" not in self.name
+    def trainable(self) -> bool:  # the dataset format and the models take an integer scale >= 2
+        return "_" not in self.name and int(self.name) >= 2
 
 
 def import_nss(src: str | Path, out: str | Path, overwrite: bool = False) -> ImportResult:
@@ -66,10 +66,10 @@ def import_nss(src: str | Path, out: str | Path, overwrite: bool = False) -> Imp
     sequences = {path.stem: read_sequence(path) for path in sorted(src.glob("*.json")) if SEQUENCE_FILE.match(path.name)}
     if not sequences:
         raise UserError(f"{src}: no sequence metadata (NNNN.json) in the NSS capture")
-    trainable = [r for r in ratios if r.integer]
-    notes = [_fractional_note(src, r, sequences) for r in ratios if not r.integer]
+    trainable = [r for r in ratios if r.trainable]
+    notes = [_untrainable_note(src, r, sequences) for r in ratios if not r.trainable]
     if not trainable:
-        raise UserError(f"{src}: no integer upscaling ratio (found {', '.join('x' + r.name for r in ratios)}); "
+        raise UserError(f"{src}: no integer upscaling ratio of 2 or more (found {', '.join('x' + r.name for r in ratios)}); "
                         "the toolkit trains integer scales only")
 
     def write(staging: Path) -> list[Path]:
@@ -83,14 +83,15 @@ def import_nss(src: str | Path, out: str | Path, overwrite: bool = False) -> Imp
     return ImportResult([str(Path(out) / f"x{r.name}") for r in trainable], len(sequences), frames, notes, warnings)
 
 
-def _fractional_note(src: Path, ratio: Ratio, sequences: dict[str, dict]) -> str:
-    """What a fractional ratio holds (its frame files counted against ``Frames``) and why it is not written."""
+def _untrainable_note(src: Path, ratio: Ratio, sequences: dict[str, dict]) -> str:
+    """What a fractional ratio (or x1) holds, its frame files counted against ``Frames``, and why it is not written."""
     for name, data in sequences.items():
         for buffer in LR_BUFFERS:
             _frame_files(src / f"x{ratio.name}" / buffer / name, len(data["Frames"]), data["_path"])
     frames = sum(len(d["Frames"]) for d in sequences.values())
-    return (f"x{ratio.name}: {frames} frames found, not imported: ratio {ratio.value:g} is fractional and not yet "
-            "trainable (the toolkit's models upscale by an integer factor)")
+    why = "is fractional" if "_" in ratio.name else "does not upscale"
+    return (f"x{ratio.name}: {frames} frames found, not imported: ratio {ratio.value:g} {why} and is not yet "
+            "trainable (the toolkit's models upscale by an integer factor of 2 or more)")
 
 
 def find_ratios(src: Path) -> list[Ratio]:
