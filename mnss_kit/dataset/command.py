@@ -1,11 +1,11 @@
-"""``mnss-kit data``: check a dataset, describe it, or build its decoded cache."""
+"""``mnss-kit data``: check a dataset, describe it, build its decoded cache, or import a capture into it."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-HELP = "check, describe or cache a dataset (data check | info | cache DIR)"
+HELP = "check, describe, cache or import a dataset (data check | info | cache DIR, data import FORMAT SRC)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -24,10 +24,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p = sub.add_parser("cache", help="decode every buffer once into the training cache")
     p.add_argument("dir", type=Path, help="dataset directory or one sequence directory")
     p.add_argument("--cache-dir", type=Path, default=None, help="where to put the cache (default: DIR/.cache)")
+    p = sub.add_parser(
+        "import",
+        help="convert a capture (nss: Arm NSS capture; images: PNG/EXR/NPY files and a mapping) into the dataset format",
+        description="Import a capture into the dataset format (docs/dataset.md, Importing captures), recording its "
+        "conventions in meta.json, and check the result as data check does; nothing is written to --out on failure.",
+    )
+    p.add_argument("format", choices=IMPORT_FORMATS, help="nss: an Arm Neural Super Sampling capture; images: "
+                   "per-buffer image files described by --mapping")
+    p.add_argument("src", type=Path, help="the capture directory")
+    p.add_argument("--out", type=Path, required=True, help="output dataset directory (must be empty or absent)")
+    p.add_argument("--mapping", default=None, help="images: a mapping YAML, or a name under configs/import/ (e.g. packed8)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+
+
+IMPORT_FORMATS = ("nss", "images")
 
 
 def run(args: argparse.Namespace) -> int:
-    return {"check": run_check, "info": run_info, "cache": run_cache}[args.data_command](args)
+    return {"check": run_check, "info": run_info, "cache": run_cache, "import": run_import}[args.data_command](args)
 
 
 def run_check(args: argparse.Namespace) -> int:
@@ -87,4 +102,27 @@ def run_cache(args: argparse.Namespace) -> int:
         (cache,) = prepare_caches([seq], buffers, cache_root, metas=[meta])
         total += sum(cache.path(r, b).stat().st_size for r, b in buffers)
     print(f"cache ready: {cache_root} ({len(seqs)} sequence(s), {total / 1e6:.1f} MB)")
+    return 0
+
+
+def run_import(args: argparse.Namespace) -> int:
+    from ..errors import UserError
+    from ..fileio import check_output
+
+    check_output(args.out, "directory")
+    if args.format == "nss":
+        from .importers.nss import import_nss
+
+        if args.mapping:
+            raise UserError("--mapping is for the images format; an NSS capture describes itself")
+        result = import_nss(args.src, args.out, overwrite=args.overwrite)
+    else:
+        from .importers.images import import_images
+
+        if not args.mapping:
+            raise UserError("the images format needs --mapping (a YAML path, or a name under configs/import/)")
+        result = import_images(args.src, args.mapping, args.out, overwrite=args.overwrite)
+    for line in result.warnings + result.notes:
+        print(line)
+    print(f"imported {result.sequences} sequence(s), {result.frames} frames -> {', '.join(result.datasets)}")
     return 0

@@ -172,16 +172,22 @@ def read_buffer(seq_dir: str | Path, meta: SequenceMeta, res: str, buffer: str, 
 
 def canonical_depth(raw: np.ndarray, meta: SequenceMeta) -> np.ndarray:
     """Stored depth -> linear depth normalised to [0, 1] (0 at near)."""
-    d = raw.astype(np.float64)
     n, f = meta.near, meta.far
     if meta.depth_encoding == "hardware":
-        if meta.reverse_z:
-            d = 1.0 - d
-        # standard D3D/Vulkan-style [0, 1] hardware depth: d = f (z - n) / (z (f - n))
-        z = (n * f) / np.maximum(f - d * (f - n), 1e-12)
+        z = view_depth(raw, n, f, meta.reverse_z)
     else:
-        z = d
+        z = raw.astype(np.float64)
     return np.clip((z - n) / (f - n), 0.0, 1.0).astype(np.float32)
+
+
+def view_depth(hardware: np.ndarray, near: float, far: float, reverse_z: bool) -> np.ndarray:
+    """``(...)`` float64 view depth z of [0, 1] hardware depth; ``far`` may be ``inf`` (infinite projection)."""
+    d = hardware.astype(np.float64)
+    if reverse_z:
+        d = 1.0 - d
+    # standard D3D/Vulkan-style [0, 1] hardware depth: d = f (z - n) / (z (f - n)), i.e.
+    # z = n / (1 - d (1 - n / f)); with an infinite far plane d = 1 - n / z
+    return near / np.maximum(1.0 - d * (1.0 - near / far), 1e-12)
 
 
 def canonical_motion(raw: np.ndarray, meta: SequenceMeta, size: tuple[int, int]) -> np.ndarray:

@@ -28,6 +28,7 @@ from ..model.families import build_model, family_of
 from . import distributed
 from .config import ExperimentConfig, TrainConfig
 from .data import ensure_data, open_windows, step_loader
+from .init import initial_weights
 from .recurrent import WindowChunk, burn_in, detach_state, validate
 from .state import FINAL, LAST, load_last, save_final, save_last
 from .summaries import Summaries
@@ -44,29 +45,37 @@ class RunState:
     recent_loss: float = math.nan  # mean total loss of the last logged steps
     val_psnr: float = math.nan
     stopped: str = "completed"  # completed | time_budget | interrupted
+    init: dict | None = None  # identity of the checkpoint the run's weights started from (--init)
 
     def progress(self, cfg: TrainConfig) -> dict:
         return {"step": self.step, "epochs_done": self.step // cfg.steps_per_epoch, "elapsed_s": self.elapsed_s,
                 "recent_loss": self.recent_loss, "val_psnr": self.val_psnr}
 
 
-def train(experiment: ExperimentConfig, out_dir: str | Path, resume: bool = False, progress: bool = True) -> Path:
+def train(experiment: ExperimentConfig, out_dir: str | Path, resume: bool = False, progress: bool = True,
+          init: str | None = None) -> Path:
     """Train ``experiment`` into ``out_dir`` (``last.pt``, ``model.pt``, ``logs/``); returns model.pt's path.
 
-    Under ``torchrun`` every process calls this; rank 0 alone writes files.
+    ``init``: a checkpoint (shipped name or path) whose weights the run starts from instead of a
+    random initialisation (checked by ``init.initial_weights``).  Under ``torchrun`` every process calls
+    this; rank 0 alone writes files.
     """
+    if init and resume:
+        raise UserError("--init starts a new run; --resume continues one from its last.pt (use one of them)")
     world = distributed.setup()
     try:
-        return _train(experiment, Path(out_dir), resume, progress, world)
+        return _train(experiment, Path(out_dir), resume, progress, world, init)
     finally:
         distributed.teardown(world)
 
 
-def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: bool, world: distributed.World) -> Path:
+def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: bool, world: distributed.World,
+           init: str | None) -> Path:
     cfg = experiment.train
     threads = distributed.cpu_threads(world, cfg.threads)
     torch.set_num_threads(threads)
     _check_out_dir(out_dir, resume)
+    weights, initial = initial_weights(experiment.model, init) if init else (None, None)  # before any data work
     if world.is_main:
         ensure_data(cfg, experiment.data, progress)
     windows, val_windows = _open_data(cfg, world, progress, family_of(experiment.model).hr_inputs)
@@ -75,9 +84,12 @@ def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: 
 
     torch.manual_seed(cfg.seed)  # identical initial weights on every rank
     model = build_model(experiment.model)
+    if weights is not None:
+        model.load_state_dict(weights)
     optimizer = torch.optim.Adam(model.parameters(), lr=cfg.lr, betas=cfg.betas, eps=cfg.eps)
-    run = _resume(out_dir, model, optimizer, experiment) if resume else RunState()
+    run = _resume(out_dir, model, optimizer, experiment) if resume else RunState(init=initial)
     record = _record(experiment, windows)
+    record["init"] = run.init
     log.info("training %d steps of %d x %d windows (%d+%d frames, %d px crops), %d process(es) x %d thread(s)",
              cfg.steps, world.size, cfg.batch_size, cfg.burn_in, cfg.window, cfg.crop, world.size, threads)
 
@@ -120,7 +132,8 @@ def _resume(out_dir: Path, model, optimizer, experiment: ExperimentConfig) -> Ru
     record, saved = load_last(out_dir / LAST, model, optimizer)
     _check_resumable(record, experiment)
     log.info("resuming %s at step %d of %d", out_dir, saved["step"], experiment.train.steps)
-    return RunState(step=saved["step"], elapsed_s=saved["elapsed_s"], recent_loss=saved["recent_loss"], val_psnr=saved["val_psnr"])
+    return RunState(step=saved["step"], elapsed_s=saved["elapsed_s"], recent_loss=saved["recent_loss"], val_psnr=saved["val_psnr"],
+                    init=record.get("init"))
 
 
 def _run_steps(cfg, run, model, optimizer, runner, windows, val_windows, summaries, out_dir, record, world, progress) -> float:

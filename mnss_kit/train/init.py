@@ -1,0 +1,48 @@
+"""Start a run from a checkpoint's weights (``mnss-kit train CONFIG --init NAME_OR_CKPT``).
+
+The checkpoint (a shipped name such as ``mnss_x2`` or a ``.pt`` path) must be of the config's
+model family and scale, and every tensor of the config's model must exist in it with the same
+shape; otherwise a one-line UserError names the first difference.  Settings that change no
+tensor (activations, the history source) may differ: the config's win, and they are logged.
+"""
+
+from __future__ import annotations
+
+import logging
+
+from torch import nn
+
+from ..config import to_dict
+from ..errors import UserError
+from ..model import checkpoint
+from ..model.families import build_model
+
+log = logging.getLogger(__name__)
+
+
+def initial_weights(config, name_or_path: str) -> tuple[dict, dict]:
+    """``(state dict, identity)`` of checkpoint ``name_or_path``, checked against the model of ``config``."""
+    source, record = checkpoint.load(name_or_path)
+    model = build_model(config)  # only its tensor shapes are used
+    if record.get("family") != config.family or record.get("scale") != model.scale:
+        raise UserError(f"--init {name_or_path}: a {record.get('family')} x{record.get('scale')} checkpoint cannot "
+                        f"start a {config.family} x{model.scale} model")
+    weights = source.state_dict()
+    _check_tensors(model.state_dict(), weights, name_or_path)
+    differing = sorted(k for k, v in to_dict(config).items() if record["config"].get(k) != v)
+    if differing:
+        log.info("--init %s: model.%s differ from the checkpoint's (no tensor changes shape; the config's are used)",
+                 name_or_path, ", model.".join(differing))
+    return weights, checkpoint.identity(name_or_path, record)
+
+
+def _check_tensors(ours: dict, theirs: dict, name: str) -> None:
+    for key, tensor in ours.items():
+        if key not in theirs:
+            raise UserError(f"--init {name}: the checkpoint has no tensor '{key}' (the config's model has a different structure)")
+        if tuple(theirs[key].shape) != tuple(tensor.shape):
+            raise UserError(f"--init {name}: tensor '{key}' is {tuple(theirs[key].shape)} in the checkpoint but "
+                            f"{tuple(tensor.shape)} in the config's model (widths and layers must match)")
+    extra = sorted(set(theirs) - set(ours))
+    if extra:
+        raise UserError(f"--init {name}: the checkpoint's tensor '{extra[0]}' has no place in the config's model")

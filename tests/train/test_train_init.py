@@ -1,0 +1,55 @@
+"""``mnss-kit train CONFIG --init NAME_OR_CKPT``: fine-tuning starts from a checkpoint's weights, checked first."""
+
+from __future__ import annotations
+
+import torch
+import yaml
+
+from mnss_kit import cli
+from mnss_kit.config import resolve_config_path
+from mnss_kit.model import checkpoint
+from mnss_kit.model.families import build_model
+from mnss_kit.train.config import load_experiment
+from mnss_kit.train.loop import train
+
+SHIPPED = "mnss_x2"
+
+
+def shipped_model_section() -> dict:
+    return yaml.safe_load(resolve_config_path(SHIPPED, "models").read_text())["model"]
+
+
+def largest_change(a: dict, b: dict) -> float:
+    return max(float((a[k].float() - b[k].float()).abs().max()) for k in a)
+
+
+def test_fine_tuning_starts_from_the_shipped_weights(write_experiment, tmp_path):
+    experiment, _ = load_experiment(write_experiment(model=shipped_model_section(), epochs=1, steps_per_epoch=2))
+    final = train(experiment, tmp_path / "run", progress=False, init=SHIPPED)
+    tuned, record = checkpoint.load(final)
+    shipped, _ = checkpoint.load(SHIPPED)
+    assert record["init"]["path"] == SHIPPED and record["init"]["sha256"] == checkpoint.identity(SHIPPED, record)["sha256"]
+    assert record["training"]["steps"] == 2
+    # an Adam step moves a weight by at most about lr: two steps from the shipped weights stay within 2 lr of them
+    moved = largest_change(tuned.state_dict(), shipped.state_dict())
+    assert 0 < moved <= 2 * experiment.train.lr * 1.01, moved
+    torch.manual_seed(experiment.train.seed)
+    assert largest_change(build_model(experiment.model).state_dict(), shipped.state_dict()) > 100 * moved
+
+
+def test_a_mismatched_width_is_refused_in_one_line(write_experiment, tmp_path, capsys):
+    model = shipped_model_section() | {"recon_width": 16}
+    code = cli.main(["train", str(write_experiment(model=model)), "--out", str(tmp_path / "run"), "--init", SHIPPED])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert f"--init {SHIPPED}: tensor '" in err and "in the checkpoint but" in err and "(16," in err
+    assert not (tmp_path / "run").exists()
+
+
+def test_another_scale_or_resume_is_refused(write_experiment, tmp_path, capsys):
+    model = shipped_model_section() | {"scale": 3}
+    assert cli.main(["train", str(write_experiment(model=model)), "--out", str(tmp_path / "a"), "--init", SHIPPED]) == 2
+    assert "a mnss x2 checkpoint cannot start a mnss x3 model" in capsys.readouterr().err
+    path = write_experiment(model=shipped_model_section())
+    assert cli.main(["train", str(path), "--out", str(tmp_path / "b"), "--init", SHIPPED, "--resume"]) == 2
+    assert "--init starts a new run" in capsys.readouterr().err
