@@ -124,3 +124,22 @@ def test_emulate_cli_runs_a_toy_sequence(bundle, toy, tmp_path):
     assert main(["emulate", str(bundle), "--data", str(toy["data"]), "--out", str(out), "--frames", "2", "--no-progress"]) == 0
     metrics = json.loads((out / "metrics.json").read_text())
     assert all(s["summary"]["frames"] == 2 for s in metrics["sequences"].values())
+
+
+def test_java_core_reads_verifies_and_self_tests_the_toy_bundle(bundle, tmp_path):
+    """The Android core's bundle and golden contract on the toy family's bundle: hashes verified,
+    every field read, the schedule accepted, the self-test over its golden frames passed."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "android"))
+    from java_harness import compile_core, missing_tools
+
+    reason = missing_tools()
+    if reason:
+        pytest.skip(reason)
+    java = compile_core(tmp_path / "classes")
+    assert java.tool("verify", str(bundle)) == ""
+    summary = json.loads(java.tool("read", str(bundle), str(tmp_path / "log")))
+    assert summary["schedule_problems"] == [] and summary["golden_inputs"] == ["color", "hr_albedo"]
+    report = java.tool("selftest", str(bundle), str(tmp_path / "dump"), "0")
+    assert report.strip().endswith("PASSED"), report
