@@ -27,6 +27,11 @@ ORG_JSON_JAR = Path(os.environ.get("MNSS_ORG_JSON_JAR", "/usr/share/java/com.and
 LIBRARIES = ((JUNIT_JAR, "junit4", "MNSS_JUNIT_JAR"), (HAMCREST_JAR, "junit4", "MNSS_HAMCREST_JAR"),
              (ORG_JSON_JAR, "libandroid-json-java", "MNSS_ORG_JSON_JAR"))
 LIBRARY_JARS = tuple(jar for jar, _, _ in LIBRARIES)
+# Debian's libjogl2-java and libgluegen2-rt-java (their native parts: libjogl2-jni, libgluegen2-jni)
+JOGL_JARS = (Path(os.environ.get("MNSS_JOGL_JAR", "/usr/share/java/jogl2.jar")),
+             Path(os.environ.get("MNSS_GLUEGEN_JAR", "/usr/share/java/gluegen2-rt.jar")))
+JOGL_PACKAGES = "libjogl2-java libjogl2-jni libgluegen2-rt-java libgluegen2-jni"
+GLJOGL = REPO / "android" / "gljogl"
 JAVA_RELEASE = 17
 PACKAGE = "io.mnsskit.core"
 
@@ -76,16 +81,51 @@ def missing_tools() -> str | None:
     return None
 
 
-def java_sources(kind: str) -> list[Path]:
-    return sorted((CORE / "src" / kind / "java").rglob("*.java"))
+def missing_jogl() -> str | None:
+    """Why JOGL cannot run here (on top of :func:`missing_tools`), or None."""
+    return missing_tools() or next((f"{jar} not found (apt-get install -y {JOGL_PACKAGES})" for jar in JOGL_JARS if not jar.is_file()), None)
+
+
+def jogl_run(cmd: list[str], timeout: float = 300) -> subprocess.CompletedProcess:
+    """Run ``java ...`` the way JOGL gets a display-less OpenGL ES context on Mesa (android/gljogl/JoglContext.java)."""
+    env = {**os.environ, "EGL_PLATFORM": "surfaceless"}
+    return subprocess.run([cmd[0], "-Djogl.disable.opengldesktop", *cmd[1:]], capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def java_sources(kind: str, root: Path = CORE) -> list[Path]:
+    return sorted((root / "src" / kind / "java").rglob("*.java"))
+
+
+def javac(sources: list[Path], out: Path, classpath: list[Path], what: str) -> None:
+    """javac ``sources`` into ``out`` as the app's build does (warnings are errors); fails the test with javac's errors."""
+    cmd = ["javac", "--release", str(JAVA_RELEASE), "-Xlint:all", "-Werror", "-encoding", "UTF-8", "-d", str(out),
+           "-cp", os.pathsep.join(map(str, classpath)), *map(str, sources)]
+    result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    if result.returncode != 0:
+        pytest.fail(f"javac failed on {what}:\n{result.stderr[-6000:]}", pytrace=False)
 
 
 def compile_core(out: Path) -> JavaCore:
     """javac the core and its tests into ``out``; fails the test with javac's errors."""
-    sources = java_sources("main") + java_sources("test")
-    cmd = ["javac", "--release", str(JAVA_RELEASE), "-Xlint:all", "-Werror", "-encoding", "UTF-8", "-d", str(out),
-           "-cp", os.pathsep.join(map(str, LIBRARY_JARS)), *map(str, sources)]
-    result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-    if result.returncode != 0:
-        pytest.fail(f"javac failed on android/core:\n{result.stderr[-6000:]}", pytrace=False)
+    javac(java_sources("main") + java_sources("test"), out, list(LIBRARY_JARS), "android/core")
     return JavaCore(out)
+
+
+def compile_gl_pipeline(out: Path) -> Path:
+    """javac the core's main sources and android/gljogl (the JOGL binding of the pipeline) into ``out``."""
+    javac(java_sources("main") + java_sources("main", GLJOGL), out, [*LIBRARY_JARS, *JOGL_JARS], "android/core + android/gljogl")
+    return out
+
+
+def run_gl_pipeline(classes: Path, bundle: Path) -> tuple[int, int]:
+    """Run the app's frame pipeline over ``bundle``'s golden frames on Mesa through JOGL
+    (``GlPipelineCheck``); fails the test unless every GL-produced tensor matches.  Returns
+    (tensors, values) compared."""
+    classpath = os.pathsep.join(map(str, [classes, *LIBRARY_JARS, *JOGL_JARS]))
+    run = jogl_run(["java", "-Xshare:auto", "-XX:TieredStopAtLevel=1", "-cp", classpath, "io.mnsskit.gljogl.GlPipelineCheck", str(bundle)])
+    print(run.stdout)
+    if run.returncode != 0:
+        pytest.fail(f"GL pipeline check on {bundle} failed:\n{run.stdout[-6000:]}\n{run.stderr[-4000:]}", pytrace=False)
+    match = re.search(r"^compared (\d+) tensors (\d+) values, 0 wrong$", run.stdout, re.M)
+    assert match, run.stdout
+    return int(match.group(1)), int(match.group(2))

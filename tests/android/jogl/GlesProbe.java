@@ -1,17 +1,9 @@
-import com.jogamp.nativewindow.AbstractGraphicsDevice;
-import com.jogamp.nativewindow.DefaultGraphicsDevice;
-import com.jogamp.nativewindow.NativeWindowFactory;
 import com.jogamp.opengl.GL;
 import com.jogamp.opengl.GL2ES2;
 import com.jogamp.opengl.GL2ES3;
 import com.jogamp.opengl.GL3ES3;
 import com.jogamp.opengl.GL4ES3;
-import com.jogamp.opengl.GLAutoDrawable;
-import com.jogamp.opengl.GLCapabilities;
-import com.jogamp.opengl.GLContext;
-import com.jogamp.opengl.GLDrawableFactory;
-import com.jogamp.opengl.GLProfile;
-import com.jogamp.opengl.GLRendererQuirks;
+import io.mnsskit.gljogl.JoglContext;
 import java.nio.ByteBuffer;
 import java.nio.ByteOrder;
 import java.nio.FloatBuffer;
@@ -24,11 +16,8 @@ import java.nio.IntBuffer;
  * read-back with {@code glMapBufferRange} and {@code glReadPixels}.  Prints the context's
  * version and renderer, then {@code checked N wrong M gl_error E}; exits 1 if anything is off.
  *
- * <p>Run with {@code EGL_PLATFORM=surfaceless} and {@code -Djogl.disable.opengldesktop}.  JOGL
- * 2.3.2 probes surfaceless contexts by asking EGL for window configs, which Mesa's surfaceless
- * platform does not have; the sticky quirk {@code NoSurfacelessCtx} on the EGL factory's
- * default device (unique id {@code .egl_nil_0}: type EGL, no connection, unit 0), set before
- * {@link GLProfile#initSingleton()}, makes it use a pbuffer instead.
+ * <p>Run with {@code EGL_PLATFORM=surfaceless} and {@code -Djogl.disable.opengldesktop}
+ * ({@link JoglContext} says why).
  */
 public final class GlesProbe {
     private static final int N = 4;
@@ -49,26 +38,15 @@ public final class GlesProbe {
     }
 
     public static void main(String[] args) {
-        AbstractGraphicsDevice egl = new DefaultGraphicsDevice(NativeWindowFactory.TYPE_EGL, "nil", AbstractGraphicsDevice.DEFAULT_UNIT);
-        GLRendererQuirks.addStickyDeviceQuirk(egl, GLRendererQuirks.NoSurfacelessCtx);
-        GLProfile.initSingleton();
-        GLProfile profile = GLProfile.get(GLProfile.GLES3);
-        GLCapabilities caps = new GLCapabilities(profile);
-        caps.setOnscreen(false);
-        caps.setPBuffer(true);
-        GLAutoDrawable drawable = GLDrawableFactory.getFactory(profile).createOffscreenAutoDrawable(null, caps, null, 16, 16);
-        drawable.display();
-        GLContext context = drawable.getContext();
-        if (context.makeCurrent() == GLContext.CONTEXT_NOT_CURRENT) {
-            throw new IllegalStateException("the GLES context cannot be made current");
+        int wrong;
+        int error;
+        try (JoglContext context = new JoglContext()) {
+            GL4ES3 gl = context.gl();
+            System.out.println("version " + gl.glGetString(GL.GL_VERSION) + " | renderer " + gl.glGetString(GL.GL_RENDERER));
+            wrong = run(gl);
+            error = gl.glGetError();
         }
-        GL4ES3 gl = context.getGL().getGL4ES3();
-        System.out.println("version " + gl.glGetString(GL.GL_VERSION) + " | renderer " + gl.glGetString(GL.GL_RENDERER));
-        int wrong = run(gl);
-        int error = gl.glGetError();
         System.out.println("checked " + 3 * N * N + " wrong " + wrong + " gl_error " + error);
-        context.release();
-        drawable.destroy();
         System.exit(wrong == 0 && error == GL.GL_NO_ERROR ? 0 : 1);
     }
 

@@ -1,12 +1,5 @@
-package io.mnsskit.sample;
+package io.mnsskit.core;
 
-import android.opengl.GLES20;
-import android.opengl.GLES30;
-import android.opengl.GLES31;
-import io.mnsskit.core.BundleException;
-import io.mnsskit.core.GpuSection;
-import io.mnsskit.core.Manifest;
-import io.mnsskit.core.Tensor;
 import java.io.File;
 import java.io.IOException;
 import java.nio.ByteBuffer;
@@ -19,7 +12,8 @@ import java.util.Map;
 /**
  * The textures and buffers of a bundle's {@code resources}, created once from the manifest
  * (sizes, formats, layers, buffer bytes), and the weight file as one SSBO whose blocks are bound
- * as ranges.  Uploads and read-backs for the self-test.  Needs a current GL ES 3.1 context.
+ * as ranges.  Uploads and read-backs for the self-test.  Needs a current GL ES 3.1 context
+ * (every call goes through {@link Gles31}).
  */
 final class GlResources implements AutoCloseable {
     /** A GL sized format and the client format used to upload float data to it. */
@@ -35,6 +29,7 @@ final class GlResources implements AutoCloseable {
         }
     }
 
+    private final Gles31 gl;
     private final Map<String, Integer> textures = new HashMap<>();
     private final Map<String, Integer> buffers = new HashMap<>();
     private final Map<String, GpuSection.Resource> specs = new HashMap<>();
@@ -44,72 +39,73 @@ final class GlResources implements AutoCloseable {
 
     static Format format(String name) {
         switch (name) {
-            case "rgba16f": return new Format(GLES30.GL_RGBA16F, GLES30.GL_RGBA, 4);
-            case "rgba32f": return new Format(GLES30.GL_RGBA32F, GLES30.GL_RGBA, 4);
-            case "r32f": return new Format(GLES30.GL_R32F, GLES30.GL_RED, 1);
-            case "rg32f": return new Format(GLES30.GL_RG32F, GLES30.GL_RG, 2);
-            case "rgba8": return new Format(GLES30.GL_RGBA8, GLES30.GL_RGBA, 4);
+            case "rgba16f": return new Format(Gles31.GL_RGBA16F, Gles31.GL_RGBA, 4);
+            case "rgba32f": return new Format(Gles31.GL_RGBA32F, Gles31.GL_RGBA, 4);
+            case "r32f": return new Format(Gles31.GL_R32F, Gles31.GL_RED, 1);
+            case "rg32f": return new Format(Gles31.GL_RG32F, Gles31.GL_RG, 2);
+            case "rgba8": return new Format(Gles31.GL_RGBA8, Gles31.GL_RGBA, 4);
             default: throw new BundleException("texture format '" + name + "' is not supported by this app");
         }
     }
 
-    GlResources(Manifest manifest, File bundle) {
+    GlResources(Gles31 gl, Manifest manifest, File bundle) {
+        this.gl = gl;
         for (GpuSection.Resource r : manifest.resources) {
             specs.put(r.name, r);
             if (r.kind == GpuSection.ResourceKind.BUFFER) {
-                buffers.put(r.name, buffer((int) r.bytes, null, GLES30.GL_DYNAMIC_COPY));
+                buffers.put(r.name, buffer((int) r.bytes, null, Gles31.GL_DYNAMIC_COPY));
             } else {
                 textures.put(r.name, texture(r));
             }
         }
         GpuSection.Weights w = manifest.gpu.weights;
         blocks = w.blocks;
-        weights = buffer(-1, readDirect(new File(bundle, w.file)), GLES30.GL_STATIC_DRAW);
+        weights = buffer(-1, readDirect(new File(bundle, w.file)), Gles31.GL_STATIC_DRAW);
         int[] fbo = new int[1];
-        GLES30.glGenFramebuffers(1, fbo, 0);
+        gl.glGenFramebuffers(1, fbo, 0);
         framebuffer = fbo[0];
         checkError("creating resources");
     }
 
-    private static int texture(GpuSection.Resource r) {
+    private int texture(GpuSection.Resource r) {
         int[] id = new int[1];
-        GLES30.glGenTextures(1, id, 0);
-        int target = r.kind == GpuSection.ResourceKind.TEXTURE2D_ARRAY ? GLES30.GL_TEXTURE_2D_ARRAY : GLES30.GL_TEXTURE_2D;
-        GLES30.glBindTexture(target, id[0]);
+        gl.glGenTextures(1, id, 0);
+        int target = r.kind == GpuSection.ResourceKind.TEXTURE2D_ARRAY ? Gles31.GL_TEXTURE_2D_ARRAY : Gles31.GL_TEXTURE_2D;
+        gl.glBindTexture(target, id[0]);
         int internal = format(r.format).internal;
-        if (target == GLES30.GL_TEXTURE_2D_ARRAY) {
-            GLES30.glTexStorage3D(target, 1, internal, r.size[0], r.size[1], r.layers);
+        if (target == Gles31.GL_TEXTURE_2D_ARRAY) {
+            gl.glTexStorage3D(target, 1, internal, r.size[0], r.size[1], r.layers);
         } else {
-            GLES30.glTexStorage2D(target, 1, internal, r.size[0], r.size[1]);
+            gl.glTexStorage2D(target, 1, internal, r.size[0], r.size[1]);
         }
         // Shaders read with texelFetch; NEAREST keeps r32f/rg32f (not filterable) texture-complete.
-        GLES30.glTexParameteri(target, GLES30.GL_TEXTURE_MIN_FILTER, GLES30.GL_NEAREST);
-        GLES30.glTexParameteri(target, GLES30.GL_TEXTURE_MAG_FILTER, GLES30.GL_NEAREST);
-        GLES30.glTexParameteri(target, GLES30.GL_TEXTURE_WRAP_S, GLES30.GL_CLAMP_TO_EDGE);
-        GLES30.glTexParameteri(target, GLES30.GL_TEXTURE_WRAP_T, GLES30.GL_CLAMP_TO_EDGE);
+        gl.glTexParameteri(target, Gles31.GL_TEXTURE_MIN_FILTER, Gles31.GL_NEAREST);
+        gl.glTexParameteri(target, Gles31.GL_TEXTURE_MAG_FILTER, Gles31.GL_NEAREST);
+        gl.glTexParameteri(target, Gles31.GL_TEXTURE_WRAP_S, Gles31.GL_CLAMP_TO_EDGE);
+        gl.glTexParameteri(target, Gles31.GL_TEXTURE_WRAP_T, Gles31.GL_CLAMP_TO_EDGE);
         return id[0];
     }
 
-    private static int buffer(int bytes, ByteBuffer data, int usage) {
+    private int buffer(int bytes, ByteBuffer data, int usage) {
         int[] id = new int[1];
-        GLES30.glGenBuffers(1, id, 0);
-        GLES30.glBindBuffer(GLES31.GL_SHADER_STORAGE_BUFFER, id[0]);
-        GLES30.glBufferData(GLES31.GL_SHADER_STORAGE_BUFFER, data != null ? data.capacity() : bytes, data, usage);
+        gl.glGenBuffers(1, id, 0);
+        gl.glBindBuffer(Gles31.GL_SHADER_STORAGE_BUFFER, id[0]);
+        gl.glBufferData(Gles31.GL_SHADER_STORAGE_BUFFER, data != null ? data.capacity() : bytes, data, usage);
         return id[0];
     }
 
     void bindSampler(int unit, String name, boolean array) {
-        GLES30.glActiveTexture(GLES30.GL_TEXTURE0 + unit);
-        GLES30.glBindTexture(array ? GLES30.GL_TEXTURE_2D_ARRAY : GLES30.GL_TEXTURE_2D, texture(name));
+        gl.glActiveTexture(Gles31.GL_TEXTURE0 + unit);
+        gl.glBindTexture(array ? Gles31.GL_TEXTURE_2D_ARRAY : Gles31.GL_TEXTURE_2D, texture(name));
     }
 
     void bindImage(int unit, String name, String declaredFormat, boolean array) {
         // Image bindings in the bundle are the passes' outputs (imageStore, writeonly).
-        GLES31.glBindImageTexture(unit, texture(name), 0, array, 0, GLES31.GL_WRITE_ONLY, format(declaredFormat).internal);
+        gl.glBindImageTexture(unit, texture(name), 0, array, 0, Gles31.GL_WRITE_ONLY, format(declaredFormat).internal);
     }
 
     void bindBuffer(int unit, String name) {
-        GLES30.glBindBufferBase(GLES31.GL_SHADER_STORAGE_BUFFER, unit, buffer(name));
+        gl.glBindBufferBase(Gles31.GL_SHADER_STORAGE_BUFFER, unit, buffer(name));
     }
 
     /** A weight block as an SSBO range; block offsets are aligned for any GL ES device. */
@@ -118,7 +114,7 @@ final class GlResources implements AutoCloseable {
         if (b == null) {
             throw new BundleException("no weight block '" + block + "'");
         }
-        GLES30.glBindBufferRange(GLES31.GL_SHADER_STORAGE_BUFFER, unit, weights, (int) b.offset, (int) b.bytes);
+        gl.glBindBufferRange(Gles31.GL_SHADER_STORAGE_BUFFER, unit, weights, (int) b.offset, (int) b.bytes);
     }
 
     /** Uploads an (h, w, c) float tensor into texture {@code name}, padding missing channels (alpha = 1). */
@@ -138,10 +134,10 @@ final class GlResources implements AutoCloseable {
             }
         }
         data.position(0);
-        GLES30.glBindTexture(GLES30.GL_TEXTURE_2D, texture(name));
-        GLES30.glPixelStorei(GLES30.GL_UNPACK_ALIGNMENT, 1);
+        gl.glBindTexture(Gles31.GL_TEXTURE_2D, texture(name));
+        gl.glPixelStorei(Gles31.GL_UNPACK_ALIGNMENT, 1);
         // float16 values in float32 convert exactly to rgba16f; the rest are float32 already.
-        GLES30.glTexSubImage2D(GLES30.GL_TEXTURE_2D, 0, 0, 0, w, h, f.client, GLES30.GL_FLOAT, data);
+        gl.glTexSubImage2D(Gles31.GL_TEXTURE_2D, 0, 0, 0, w, h, f.client, Gles31.GL_FLOAT, data);
         checkError("uploading " + name);
     }
 
@@ -149,21 +145,21 @@ final class GlResources implements AutoCloseable {
     void writeBuffer(String name, byte[] bytes) {
         ByteBuffer data = ByteBuffer.allocateDirect(bytes.length).order(ByteOrder.LITTLE_ENDIAN);
         data.put(bytes).position(0);
-        GLES30.glBindBuffer(GLES31.GL_SHADER_STORAGE_BUFFER, buffer(name));
-        GLES30.glBufferSubData(GLES31.GL_SHADER_STORAGE_BUFFER, 0, bytes.length, data);
+        gl.glBindBuffer(Gles31.GL_SHADER_STORAGE_BUFFER, buffer(name));
+        gl.glBufferSubData(Gles31.GL_SHADER_STORAGE_BUFFER, 0, bytes.length, data);
     }
 
     /** The first {@code count} bytes of buffer {@code name}, after the shader writes are visible. */
     byte[] readBuffer(String name, int count) {
-        GLES31.glMemoryBarrier(GLES31.GL_BUFFER_UPDATE_BARRIER_BIT);
-        GLES30.glBindBuffer(GLES31.GL_SHADER_STORAGE_BUFFER, buffer(name));
-        ByteBuffer mapped = (ByteBuffer) GLES30.glMapBufferRange(GLES31.GL_SHADER_STORAGE_BUFFER, 0, count, GLES30.GL_MAP_READ_BIT);
+        gl.glMemoryBarrier(Gles31.GL_BUFFER_UPDATE_BARRIER_BIT);
+        gl.glBindBuffer(Gles31.GL_SHADER_STORAGE_BUFFER, buffer(name));
+        ByteBuffer mapped = gl.glMapBufferRange(Gles31.GL_SHADER_STORAGE_BUFFER, 0, count, Gles31.GL_MAP_READ_BIT);
         if (mapped == null) {
             throw new IllegalStateException("glMapBufferRange failed on '" + name + "'");
         }
         byte[] out = new byte[count];
         mapped.order(ByteOrder.LITTLE_ENDIAN).get(out);
-        GLES30.glUnmapBuffer(GLES31.GL_SHADER_STORAGE_BUFFER);
+        gl.glUnmapBuffer(Gles31.GL_SHADER_STORAGE_BUFFER);
         return out;
     }
 
@@ -172,13 +168,13 @@ final class GlResources implements AutoCloseable {
         GpuSection.Resource r = spec(name);
         int w = r.size[0];
         int h = r.size[1];
-        GLES31.glMemoryBarrier(GLES31.GL_FRAMEBUFFER_BARRIER_BIT | GLES31.GL_TEXTURE_UPDATE_BARRIER_BIT);
-        GLES30.glBindFramebuffer(GLES30.GL_READ_FRAMEBUFFER, framebuffer);
-        GLES30.glFramebufferTexture2D(GLES30.GL_READ_FRAMEBUFFER, GLES30.GL_COLOR_ATTACHMENT0, GLES30.GL_TEXTURE_2D, texture(name), 0);
+        gl.glMemoryBarrier(Gles31.GL_FRAMEBUFFER_BARRIER_BIT | Gles31.GL_TEXTURE_UPDATE_BARRIER_BIT);
+        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, framebuffer);
+        gl.glFramebufferTexture2D(Gles31.GL_READ_FRAMEBUFFER, Gles31.GL_COLOR_ATTACHMENT0, Gles31.GL_TEXTURE_2D, texture(name), 0);
         ByteBuffer rgba = ByteBuffer.allocateDirect(w * h * 4);
-        GLES30.glPixelStorei(GLES30.GL_PACK_ALIGNMENT, 1);
-        GLES30.glReadPixels(0, 0, w, h, GLES30.GL_RGBA, GLES30.GL_UNSIGNED_BYTE, rgba);
-        GLES30.glBindFramebuffer(GLES30.GL_READ_FRAMEBUFFER, 0);
+        gl.glPixelStorei(Gles31.GL_PACK_ALIGNMENT, 1);
+        gl.glReadPixels(0, 0, w, h, Gles31.GL_RGBA, Gles31.GL_UNSIGNED_BYTE, rgba);
+        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, 0);
         checkError("reading " + name);
         byte[] rgb = new byte[w * h * 3];
         for (int p = 0; p < w * h; p++) {
@@ -223,9 +219,9 @@ final class GlResources implements AutoCloseable {
         }
     }
 
-    static void checkError(String what) {
-        int error = GLES20.glGetError();
-        if (error != GLES20.GL_NO_ERROR) {
+    void checkError(String what) {
+        int error = gl.glGetError();
+        if (error != Gles31.GL_NO_ERROR) {
             throw new IllegalStateException("GL error 0x" + Integer.toHexString(error) + " while " + what);
         }
     }
@@ -233,10 +229,10 @@ final class GlResources implements AutoCloseable {
     @Override
     public void close() {
         int[] ids = textures.values().stream().mapToInt(Integer::intValue).toArray();
-        GLES30.glDeleteTextures(ids.length, ids, 0);
+        gl.glDeleteTextures(ids.length, ids, 0);
         int[] bufs = buffers.values().stream().mapToInt(Integer::intValue).toArray();
-        GLES30.glDeleteBuffers(bufs.length, bufs, 0);
-        GLES30.glDeleteBuffers(1, new int[] {weights}, 0);
-        GLES30.glDeleteFramebuffers(1, new int[] {framebuffer}, 0);
+        gl.glDeleteBuffers(bufs.length, bufs, 0);
+        gl.glDeleteBuffers(1, new int[] {weights}, 0);
+        gl.glDeleteFramebuffers(1, new int[] {framebuffer}, 0);
     }
 }

@@ -1,0 +1,31 @@
+"""The app's GL frame pipeline (android/core's GpuFramePipeline, GlResources, ComputePasses: the
+classes the phone runs over android.opengl.GLES31) run here on Mesa llvmpipe through JOGL
+(android/gljogl), over an exported bundle's golden frames, the NPU step answered from the golden
+files.  Every tensor the GL side produces (the NPU input buffers, the displayed output) must match
+the golden values: integer tensors bit-exact, float ones within 1e-3."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from java_harness import compile_gl_pipeline, missing_jogl, run_gl_pipeline
+
+
+@pytest.fixture(scope="module")
+def gl_classes(tmp_path_factory):
+    reason = missing_jogl()
+    if reason:
+        pytest.skip(reason)
+    return compile_gl_pipeline(tmp_path_factory.mktemp("gl_pipeline_classes"))
+
+
+def test_app_frame_pipeline_reproduces_the_golden_frames_on_mesa(gl_classes, tiny_bundle, capsys):
+    manifest = json.loads((tiny_bundle / "manifest.json").read_text())
+    frames = len(manifest["golden"]["frames"])
+    tensors, values = run_gl_pipeline(gl_classes, tiny_bundle)
+    with capsys.disabled():
+        print(f"\nGL pipeline on {manifest['model']['id']}: {tensors} tensors, {values} values compared over {frames} golden frames")
+    npu_step = next(s for s in manifest["schedule"]["steps"] if s.get("kind") == "npu")
+    assert tensors == frames * (len(npu_step["inputs"]) + 1)  # every NPU input buffer and the output, every frame
