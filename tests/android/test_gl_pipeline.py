@@ -7,10 +7,13 @@ the golden values: integer tensors bit-exact, float ones within 1e-3."""
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 
-from java_harness import compile_gl_pipeline, missing_jogl, run_gl_pipeline
+from java_harness import CORE, REPO, compile_gl_pipeline, missing_jogl, run_gl_pipeline
+
+ANDROID_APP = REPO / "android" / "app" / "src" / "main" / "java" / "io" / "mnsskit" / "sample"
 
 
 @pytest.fixture(scope="module")
@@ -29,3 +32,18 @@ def test_app_frame_pipeline_reproduces_the_golden_frames_on_mesa(gl_classes, tin
         print(f"\nGL pipeline on {manifest['model']['id']}: {tensors} tensors, {values} values compared over {frames} golden frames")
     npu_step = next(s for s in manifest["schedule"]["steps"] if s.get("kind") == "npu")
     assert tensors == frames * (len(npu_step["inputs"]) + 1)  # every NPU input buffer and the output, every frame
+
+
+def gles31_methods(text: str) -> set[str]:
+    return set(re.findall(r"^    [\w\[\]]+ (gl\w+)\(", text, re.M))
+
+
+def test_phone_binding_forwards_every_call_to_android_gles31():
+    """AndroidGles31 cannot be compiled here (no Android SDK): each of its methods must be the one
+    line forwarding to the android.opengl.GLES31 call of the same name, and it must cover Gles31."""
+    interface = gles31_methods((CORE / "src/main/java/io/mnsskit/core/Gles31.java").read_text())
+    phone = (ANDROID_APP / "AndroidGles31.java").read_text()
+    forwards = dict(re.findall(r"^    @Override public [\w\[\]]+ (gl\w+)\([^)]*\) \{ (?:return )?(?:\(ByteBuffer\) )?GLES31\.(gl\w+)\(", phone, re.M))
+    assert len(interface) > 40 and set(forwards) == interface
+    assert all(name == call for name, call in forwards.items())
+    assert phone.count("@Override") == len(interface)

@@ -143,3 +143,20 @@ def test_java_core_reads_verifies_and_self_tests_the_toy_bundle(bundle, tmp_path
     assert summary["schedule_problems"] == [] and summary["golden_inputs"] == ["color", "hr_albedo"]
     report = java.tool("selftest", str(bundle), str(tmp_path / "dump"), "0")
     assert report.strip().endswith("PASSED"), report
+
+
+def test_app_gl_pipeline_reproduces_the_toy_golden_frames_on_mesa(bundle, tmp_path):
+    """The Android app's GL frame pipeline (the phone's classes, through JOGL on Mesa) over the toy
+    bundle's golden frames: every GL-produced tensor bit-exact (tests/android/test_gl_pipeline.py)."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "android"))
+    from java_harness import compile_gl_pipeline, missing_jogl, run_gl_pipeline
+
+    reason = missing_jogl()
+    if reason:
+        pytest.skip(reason)
+    frames = len(json.loads((bundle / "manifest.json").read_text())["golden"]["frames"])
+    tensors, values = run_gl_pipeline(compile_gl_pipeline(tmp_path / "classes"), bundle)
+    print(f"GL pipeline on the toy bundle: {tensors} tensors, {values} values compared over {frames} golden frames")
+    assert tensors == 2 * frames  # the NPU input buffer and the display, every frame

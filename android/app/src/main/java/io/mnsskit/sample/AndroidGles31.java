@@ -17,6 +17,7 @@ final class AndroidGles31 implements Gles31 {
     @Override public void glTexParameteri(int target, int name, int value) { GLES31.glTexParameteri(target, name, value); }
     @Override public void glPixelStorei(int name, int value) { GLES31.glPixelStorei(name, value); }
     @Override public void glTexSubImage2D(int target, int level, int x, int y, int width, int height, int format, int type, Buffer pixels) { GLES31.glTexSubImage2D(target, level, x, y, width, height, format, type, pixels); }
+    @Override public void glTexSubImage3D(int target, int level, int x, int y, int z, int width, int height, int depth, int format, int type, Buffer pixels) { GLES31.glTexSubImage3D(target, level, x, y, z, width, height, depth, format, type, pixels); }
     @Override public void glBindImageTexture(int unit, int texture, int level, boolean layered, int layer, int access, int format) { GLES31.glBindImageTexture(unit, texture, level, layered, layer, access, format); }
     @Override public void glGenBuffers(int n, int[] buffers, int offset) { GLES31.glGenBuffers(n, buffers, offset); }
     @Override public void glDeleteBuffers(int n, int[] buffers, int offset) { GLES31.glDeleteBuffers(n, buffers, offset); }

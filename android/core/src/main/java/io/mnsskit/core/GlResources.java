@@ -117,27 +117,43 @@ final class GlResources implements AutoCloseable {
         gl.glBindBufferRange(Gles31.GL_SHADER_STORAGE_BUFFER, unit, weights, (int) b.offset, (int) b.bytes);
     }
 
-    /** Uploads an (h, w, c) float tensor into texture {@code name}, padding missing channels (alpha = 1). */
+    /**
+     * Uploads an (h, w, c) float tensor into texture {@code name}, as the desktop's GPU passes
+     * (mnss_kit/gpu/mesa.py) fill it: a 2D texture pads missing channels with 0 (alpha with 1); a
+     * 2D array holds channels {@code 4l .. 4l+3} in layer {@code l}, zero padded.
+     */
     void uploadTexture(String name, Tensor t) {
         GpuSection.Resource r = spec(name);
         Format f = format(r.format);
+        boolean array = r.kind == GpuSection.ResourceKind.TEXTURE2D_ARRAY;
         int w = r.size[0];
         int h = r.size[1];
         int c = t.shape[2];
-        if (t.shape[0] != h || t.shape[1] != w || c > f.components) {
-            throw new BundleException("tensor " + t.describe() + " does not fit texture '" + name + "' " + w + "x" + h + " " + r.format);
+        int layers = array ? r.layers : 1;
+        int channels = layers * f.components;
+        if (t.shape[0] != h || t.shape[1] != w || c > channels) {
+            throw new BundleException("tensor " + t.describe() + " does not fit texture '" + name + "' " + w + "x" + h + " " + r.format
+                    + (array ? " x" + layers + " layers" : ""));
         }
-        FloatBuffer data = ByteBuffer.allocateDirect(w * h * f.components * 4).order(ByteOrder.nativeOrder()).asFloatBuffer();
-        for (int p = 0; p < w * h; p++) {
-            for (int k = 0; k < f.components; k++) {
-                data.put(k < c ? t.floatAt(p * c + k) : (k == 3 ? 1.0f : 0.0f));
+        FloatBuffer data = ByteBuffer.allocateDirect(w * h * channels * 4).order(ByteOrder.nativeOrder()).asFloatBuffer();
+        for (int l = 0; l < layers; l++) {
+            for (int p = 0; p < w * h; p++) {
+                for (int k = 0; k < f.components; k++) {
+                    int channel = l * f.components + k;
+                    data.put(channel < c ? t.floatAt(p * c + channel) : (!array && k == 3 ? 1.0f : 0.0f));
+                }
             }
         }
         data.position(0);
-        gl.glBindTexture(Gles31.GL_TEXTURE_2D, texture(name));
+        int target = array ? Gles31.GL_TEXTURE_2D_ARRAY : Gles31.GL_TEXTURE_2D;
+        gl.glBindTexture(target, texture(name));
         gl.glPixelStorei(Gles31.GL_UNPACK_ALIGNMENT, 1);
         // float16 values in float32 convert exactly to rgba16f; the rest are float32 already.
-        gl.glTexSubImage2D(Gles31.GL_TEXTURE_2D, 0, 0, 0, w, h, f.client, Gles31.GL_FLOAT, data);
+        if (array) {
+            gl.glTexSubImage3D(target, 0, 0, 0, 0, w, h, layers, f.client, Gles31.GL_FLOAT, data);
+        } else {
+            gl.glTexSubImage2D(target, 0, 0, 0, w, h, f.client, Gles31.GL_FLOAT, data);
+        }
         checkError("uploading " + name);
     }
 

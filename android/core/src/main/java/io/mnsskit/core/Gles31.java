@@ -68,6 +68,7 @@ public interface Gles31 {
     void glTexParameteri(int target, int name, int value);
     void glPixelStorei(int name, int value);
     void glTexSubImage2D(int target, int level, int x, int y, int width, int height, int format, int type, Buffer pixels);
+    void glTexSubImage3D(int target, int level, int x, int y, int z, int width, int height, int depth, int format, int type, Buffer pixels);
     void glBindImageTexture(int unit, int texture, int level, boolean layered, int layer, int access, int format);
 
     // buffers

@@ -31,6 +31,9 @@ public final class JoglGles31 implements Gles31 {
     @Override public void glTexSubImage2D(int target, int level, int x, int y, int w, int h, int format, int type, Buffer pixels) {
         gl.glTexSubImage2D(target, level, x, y, w, h, format, type, pixels);
     }
+    @Override public void glTexSubImage3D(int target, int level, int x, int y, int z, int w, int h, int d, int format, int type, Buffer pixels) {
+        gl.glTexSubImage3D(target, level, x, y, z, w, h, d, format, type, pixels);
+    }
     @Override public void glBindImageTexture(int unit, int texture, int level, boolean layered, int layer, int access, int format) {
         gl.glBindImageTexture(unit, texture, level, layered, layer, access, format);
     }
