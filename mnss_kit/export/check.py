@@ -4,7 +4,9 @@ Order: the manifest (format, version gate, schema), then every listed file (pres
 SHA-256; no unlisted files), then the NPU files (tensor names, shapes and quantization of the
 manifest against ``npu.tflite``, and ``npu.tflite`` against ``npu_qdq.onnx``), the boundary
 tensors (against the NPU tensors, remaps recomputed), the GPU weight blocks and the golden
-arrays (inside their files, sizes matching shape and dtype, float values finite), and the
+arrays (inside their files, sizes matching shape and dtype, float values finite), the recorded
+sequence if there is one (every input resource, frames x the bundle's sizes, decompressing to its
+stated size, float values finite), and the
 schedule (every pass, resource and weight block it names exists).  Each problem is one line naming the file or tensor.
 """
 
@@ -41,6 +43,7 @@ def check_bundle(bundle: str | Path) -> list[str]:
     problems += check_boundary(manifest)
     problems += check_weights(root, manifest, bad_files)
     problems += check_golden(root, manifest, bad_files)
+    problems += check_sequence(root, manifest, bad_files)
     problems += check_schedule(manifest)
     return problems
 
@@ -216,6 +219,46 @@ def check_golden(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
                 problems.append(f"{name}: {listed[name]['bytes']} bytes, shape {array['shape']} of {array['dtype']} needs {expected}")
                 continue
             problems += _non_finite((root / name).read_bytes(), array["dtype"], f"{name}: golden '{key}' of frame {frame['index']}")
+    return problems
+
+
+def check_sequence(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
+    """The recorded sequence (if any): one array per input resource, (frames, h, w, channels) at the
+    bundle's sizes in the golden dtype, decompressing to the stated bytes, finite."""
+    from .sequence import input_dtypes, read_sequence_array
+
+    sequence = manifest.get("sequence")
+    if sequence is None:
+        return []
+    problems = []
+    n = sequence["frame_count"]
+    if len(sequence["frames"]) != n or [f["index"] for f in sequence["frames"]] != list(range(n)):
+        problems.append(f"manifest.json: sequence lists {len(sequence['frames'])} frames (indices 0..) for frame_count {n}")
+    dtypes = input_dtypes(manifest["resources"])
+    shapes = golden_shapes(manifest)
+    arrays = sequence["arrays"]
+    for name in sorted(set(dtypes) - set(arrays)):
+        problems.append(f"manifest.json: sequence lacks input resource '{name}'")
+    for name, entry in arrays.items():
+        where = f"{entry['file']}: sequence '{name}'"
+        if name not in dtypes:
+            problems.append(f"manifest.json: sequence holds '{name}', which is no input resource")
+            continue
+        expected = [n, *shapes[name]]
+        if entry["shape"] != expected or entry["dtype"] != dtypes[name]:
+            problems.append(f"{where} is {entry['dtype']} {entry['shape']}, the bundle needs {dtypes[name]} {expected}")
+            continue
+        if entry["file"] not in manifest["files"]:
+            problems.append(f"{where} is not listed in files")
+            continue
+        if entry["file"] in bad_files:
+            continue
+        try:
+            data = read_sequence_array(root, entry)
+        except UserError as e:
+            problems.append(str(e))
+            continue
+        problems += _non_finite(data.tobytes(), entry["dtype"], where)
     return problems
 
 

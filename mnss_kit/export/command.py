@@ -13,6 +13,7 @@ from ..split.api import DEFAULT_RESOLUTION_TEXT
 HELP = "write a deployment bundle: manifest.json, npu.tflite, npu_qdq.onnx, GPU shaders + weights, golden frames"
 
 DEFAULT_GOLDEN_FRAMES = 3
+DEFAULT_SEQUENCE_FRAMES = 30
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -34,6 +35,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              f"takes (default: {DEFAULT_RUNTIME})")
     parser.add_argument("--golden-frames", type=int, default=DEFAULT_GOLDEN_FRAMES, metavar="N",
                         help=f"consecutive golden frames (default {DEFAULT_GOLDEN_FRAMES})")
+    parser.add_argument("--sequence", metavar="DIR",
+                        help="dataset whose first sequence at the bundle's LR size the bundle carries for the app to play "
+                             "(every input the manifest lists, compressed)")
+    parser.add_argument("--frames", type=int, default=DEFAULT_SEQUENCE_FRAMES, metavar="N",
+                        help=f"frames of --sequence to carry (default {DEFAULT_SEQUENCE_FRAMES})")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing bundle directory")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
@@ -54,6 +60,8 @@ def run(args: argparse.Namespace) -> int:
         method=args.method,
         profile=args.profile,
         golden_frames=args.golden_frames,
+        sequence=Path(args.sequence) if args.sequence else None,
+        sequence_frames=args.frames,
         overwrite=args.overwrite,
         progress=not args.no_progress,
     )
@@ -63,5 +71,13 @@ def run(args: argparse.Namespace) -> int:
     w, h = manifest["hr_size"]
     print(f"wrote {request.out}: {manifest['model']['id']} x{manifest['scale']} at {w}x{h}, "
           f"{len(manifest['schedule']['steps'])} steps, {len(manifest['golden']['frames'])} golden frames, "
-          f"{len(files)} files ({total / 1e6:.1f} MB), format version {manifest['format_version']}")
+          f"{_sequence_note(manifest)}{len(files)} files ({total / 1e6:.1f} MB), format version {manifest['format_version']}")
     return 0
+
+
+def _sequence_note(manifest: dict) -> str:
+    sequence = manifest.get("sequence")
+    if not sequence:
+        return ""
+    stored = sum(manifest["files"][a["file"]]["bytes"] for a in sequence["arrays"].values())
+    return f"a {sequence['frame_count']}-frame sequence ({stored / 1e6:.1f} MB compressed), "

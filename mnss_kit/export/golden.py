@@ -110,16 +110,20 @@ def write_golden(root: Path, frames: list[GoldenFrame], scale: int, jitter_table
             data = array.astype(array.dtype.newbyteorder("<"), copy=False)
             (root / name).write_bytes(data.tobytes())
             arrays[key] = {"file": name, "dtype": array.dtype.name, "shape": list(array.shape)}
-        sub = [int(v) for v in subpixel_index(frame.jitter, scale)]
-        entries.append({
-            "index": t,
-            "reset": frame.reset,
-            "jitter": [float(v) for v in frame.jitter],
-            "subpixel": sub,
-            "jitter_index": _table_index(frame.jitter, jitter_table),
-            "arrays": arrays,
-        })
+        entries.append({**frame_entry(t, frame.reset, frame.jitter, scale, jitter_table), "arrays": arrays})
     return entries
+
+
+def frame_entry(index: int, reset: bool, jitter: np.ndarray, scale: int, jitter_table: list[dict]) -> dict:
+    """A frame's manifest entry: reset, jitter (LR pixels), sampled sub-pixel, its jitter table entry (or None)."""
+    jitter = np.asarray(jitter, np.float32)
+    return {
+        "index": index,
+        "reset": bool(reset),
+        "jitter": [float(v) for v in jitter],
+        "subpixel": [int(v) for v in subpixel_index(jitter, scale)],
+        "jitter_index": _table_index(jitter, jitter_table),
+    }
 
 
 def _table_index(jitter: np.ndarray, table: list[dict]) -> int | None:

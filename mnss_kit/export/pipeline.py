@@ -2,7 +2,7 @@
 
 Steps: load the checkpoint; take the NPU files from a quantize directory or quantize the
 reconstruction net for the bundle's size; place the stages on the device (optional); run the
-golden frames; write the bundle atomically (:func:`.writer.write_bundle`).
+golden frames; read the recorded sequence (optional); write the bundle atomically (:func:`.writer.write_bundle`).
 """
 
 from __future__ import annotations
@@ -35,6 +35,8 @@ class ExportRequest:
     method: str = "minmax"
     profile: str = DEFAULT_RUNTIME  # an ops.runtimes LiteRT runtime
     golden_frames: int = 3
+    sequence: Path | None = None  # dataset whose first sequence at the bundle's size the bundle carries
+    sequence_frames: int = 0
     overwrite: bool = False
     progress: bool = True
 
@@ -50,6 +52,8 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
 
     if request.golden_frames < 1:
         raise UserError("--golden-frames must be at least 1")
+    if request.sequence is not None and request.sequence_frames < 1:
+        raise UserError("--frames must be at least 1")
     if request.out.exists() and any(request.out.iterdir()) and not request.overwrite:
         raise UserError(f"output directory {request.out} exists and is not empty (use --overwrite)")
     clock = _Clock(timings)
@@ -77,6 +81,11 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
     log.info("running %d golden frames at %dx%d", len(frames), *hr_size)
     golden = run_golden(plan, frames, npu.tflite, request.profile, model.scale)
     clock.lap("golden")
+    sequence = None
+    if request.sequence is not None:
+        from .sequence import sequence_frames
+
+        sequence = sequence_frames(request.sequence, lr_size, model.scale, inputs, request.sequence_frames)
     parts = BundleParts(
         model=model_section(ckpt, record),
         plan=plan,
@@ -89,6 +98,7 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
         golden=golden,
         golden_source=golden_source,
         placement=placement,
+        sequence=sequence,
     )
     manifest = write_bundle(request.out, parts, overwrite=request.overwrite)
     clock.lap("write")
@@ -239,9 +249,9 @@ def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: st
     n = request.golden_frames
     hr_buffers = [k[len("hr_"):] for k in inputs if k.startswith("hr_")]
     if request.data is not None and request.data.is_dir():
-        for seq in eval_sequences(request.data, hr_buffers=hr_buffers, progress=False):
-            if tuple(seq.meta.lr_size) == tuple(lr_size) and seq.meta.scale == scale and len(seq) >= n:
-                return _first(seq, n, inputs), f"dataset {request.data}, sequence {seq.name}, frames 0..{n - 1}"
+        found = dataset_frames(request.data, lr_size, scale, inputs, n)
+        if found is not None:
+            return found
     with tempfile.TemporaryDirectory(prefix="mnss-export-golden-") as tmp:
         from ..render.config import RenderConfig, SequenceConfig
         from ..render.writer import render_dataset
@@ -251,6 +261,18 @@ def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: st
         render_dataset(RenderConfig(sequences=[seq_cfg]), Path(tmp), progress=request.progress)
         seq = eval_sequences(Path(tmp), hr_buffers=hr_buffers, progress=False)[0]
         return _first(seq, n, inputs), f"rendered: built-in scene '{GOLDEN_SCENE}', seed 1, frames 0..{n - 1}"
+
+
+def dataset_frames(data: Path, lr_size, scale: int, inputs: list[str], n: int) -> tuple[list[dict], str] | None:
+    """The first ``n`` numpy frames (``inputs``) of the first sequence in dataset ``data`` at
+    ``lr_size`` and ``scale`` with that many frames, and where they came from; None if none fits."""
+    from ..dataset.loader import eval_sequences
+
+    hr_buffers = [k[len("hr_"):] for k in inputs if k.startswith("hr_")]
+    for seq in eval_sequences(data, hr_buffers=hr_buffers, progress=False):
+        if tuple(seq.meta.lr_size) == tuple(lr_size) and seq.meta.scale == scale and len(seq) >= n:
+            return _first(seq, n, inputs), f"dataset {data}, sequence {seq.name}, frames 0..{n - 1}"
+    return None
 
 
 def _first(seq, n: int, inputs: list[str]) -> list[dict]:

@@ -26,6 +26,7 @@ from .golden import TOLERANCES, GoldenFrame, write_golden
 from .manifest import FORMAT, FORMAT_VERSION, MANIFEST_NAME, file_table
 from .npu_files import read_tflite
 from .npu_stage import NpuArtifacts
+from .sequence import write_sequence
 
 TFLITE_NAME, ONNX_NAME = "npu.tflite", "npu_qdq.onnx"
 
@@ -46,6 +47,7 @@ class BundleParts:
     golden: list[GoldenFrame]
     golden_source: str
     placement: dict | None = None
+    sequence: tuple[list[dict], str] | None = None  # recorded input frames to carry, and where they came from
 
 
 def write_bundle(out: str | Path, parts: BundleParts, overwrite: bool = False) -> dict:
@@ -81,6 +83,9 @@ def stage_bundle(root: Path, parts: BundleParts) -> dict:
     table = jitter_table(parts.jitter_pattern, parts.scale)
     golden = write_golden(root, parts.golden, parts.scale, table)
     manifest = build_manifest(parts, passes, blocks, table, golden)
+    if parts.sequence is not None:
+        frames, source = parts.sequence
+        manifest["sequence"] = write_sequence(root, frames, parts.plan["resources"], parts.scale, table, source)
     manifest["files"] = file_table(root)
     (root / MANIFEST_NAME).write_text(json_text(manifest))
     return manifest

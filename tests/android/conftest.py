@@ -13,6 +13,7 @@ import pytest
 from java_harness import REPO, JavaCore, compile_core, missing_tools
 
 BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size: its frames become the golden frames
+SEQUENCE_FRAMES = 6  # recorded frames the bundle carries for playback (the synthetic sequences have 8)
 
 
 @pytest.fixture(scope="session")
@@ -26,7 +27,8 @@ def java_core(tmp_path_factory) -> JavaCore:
 @pytest.fixture(scope="session")
 def tiny_bundle(tmp_path_factory, synthetic_dataset) -> Path:
     """A bundle written by ``mnss-kit export`` from an untrained mnss_x2_tiny checkpoint (last convs
-    perturbed so every tensor carries signal) at 64x48, golden frames from the synthetic dataset.
+    perturbed so every tensor carries signal) at 64x48, golden frames and a recorded 6-frame sequence
+    from the synthetic dataset.
     Read-only: copy it before changing it."""
     import torch
 
@@ -41,6 +43,7 @@ def tiny_bundle(tmp_path_factory, synthetic_dataset) -> Path:
     randomise_convs(model)
     ckpt = checkpoint.save(root / "mnss_x2_tiny.pt", model, {"jitter_pattern": "mnss"})
     out = root / "bundle"
-    code = main(["export", str(ckpt), "--out", str(out), "--resolution", BUNDLE_SIZE, "--data", str(synthetic_dataset), "--no-progress"])
+    code = main(["export", str(ckpt), "--out", str(out), "--resolution", BUNDLE_SIZE, "--data", str(synthetic_dataset),
+                 "--sequence", str(synthetic_dataset), "--frames", str(SEQUENCE_FRAMES), "--no-progress"])
     assert code == 0
     return out

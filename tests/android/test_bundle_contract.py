@@ -189,7 +189,7 @@ def test_self_test_dump_compares_with_the_emulator_dump(java_core, tiny_bundle, 
 
 def with_extra_input(bundle: Path, manifest: dict, out: Path, name: str = "hr_albedo") -> dict:
     """A copy of ``bundle`` whose manifest lists one more ``input`` resource (an HR float16 texture
-    no MNSS pass reads) with a golden array per frame, file table and hashes rewritten as export
+    no MNSS pass reads) with a golden array per frame (and a recorded sequence array), file table and hashes rewritten as export
     writes them; returns the new manifest."""
     copy = Path(shutil.copytree(bundle, out))
     edited = json.loads(json.dumps(manifest))
@@ -201,6 +201,14 @@ def with_extra_input(bundle: Path, manifest: dict, out: Path, name: str = "hr_al
         file = f"golden/frame_{frame['index']:03d}/{name}.bin"
         (copy / file).write_bytes(rng.random((height, width, 3)).astype("<f2").tobytes())
         frame["arrays"][name] = {"file": file, "dtype": "float16", "shape": [height, width, 3]}
+    if "sequence" in edited:  # the recorded sequence carries every input too
+        import zlib
+
+        n = edited["sequence"]["frame_count"]
+        raw = rng.random((n, height, width, 3)).astype("<f2").tobytes()
+        (copy / f"sequence/{name}.zlib").write_bytes(zlib.compress(raw))
+        edited["sequence"]["arrays"][name] = {"file": f"sequence/{name}.zlib", "dtype": "float16", "shape": [n, height, width, 3],
+                                              "compression": "zlib", "bytes": len(raw)}
     edited["files"] = file_table(copy)
     (copy / "manifest.json").write_text(json.dumps(edited, indent=1))
     return edited
@@ -225,3 +233,29 @@ def test_java_core_takes_the_inputs_the_manifest_lists(java_core, tiny_bundle, m
     result = java_core.java("io.mnsskit.core.ContractTool", "read", str(tmp_path / "bundle"), str(tmp_path / "log2"))
     assert result.returncode != 0
     assert "golden/frames/1/arrays/hr_albedo is float16 [64, 48, 3]; resource 'hr_albedo' needs float16 [48, 64, 3]" in result.stderr
+
+
+def test_java_core_reads_the_recorded_sequence(java_core, tiny_bundle, manifest, synthetic_dataset):
+    """The sequence `export --sequence` wrote, as the Java core decompresses it: every input
+    resource, every frame's bytes (SHA-256) and values equal to numpy's reading of the same files."""
+    import hashlib
+
+    from conftest import SEQUENCE_FRAMES
+    from mnss_kit.export.sequence import read_sequence_array
+
+    sequence = manifest["sequence"]
+    inputs = [r["name"] for r in manifest["resources"] if r["role"] == "input"]
+    assert sequence["frame_count"] == SEQUENCE_FRAMES and list(sequence["arrays"]) == inputs
+    java = json.loads(java_core.tool("sequence", str(tiny_bundle)))
+    assert java["frames"] == [[f["reset"], -1 if f["jitter_index"] is None else f["jitter_index"]] for f in sequence["frames"]]
+    assert java["frames"][0][0] is True
+    for name, entry in sequence["arrays"].items():
+        data = read_sequence_array(tiny_bundle, entry)
+        expected = [[hashlib.sha256(frame.tobytes()).hexdigest(), float(frame.flat[0]), float(frame.flat[-1])] for frame in data]
+        assert java["arrays"][name] == expected, name
+    # frames 0.. of the sequence are the golden frames' inputs (both from the dataset's first sequence)
+    for golden in manifest["golden"]["frames"]:
+        for name in inputs:
+            array = golden["arrays"][name]
+            stored = np.fromfile(tiny_bundle / array["file"], array["dtype"]).reshape(array["shape"])
+            np.testing.assert_array_equal(read_sequence_array(tiny_bundle, sequence["arrays"][name])[golden["index"]], stored)

@@ -1,5 +1,5 @@
 """One small bundle per session: the tiny MNSS x2 config with perturbed weights, exported at 64x48
-from the synthetic dataset (which also gives the golden frames).  Copy it before changing it."""
+from the synthetic dataset (which also gives the golden frames and a recorded 6-frame sequence).  Copy it before changing it."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size, so its frames serve as golden frames
+SEQUENCE_FRAMES = 6  # recorded frames the bundle carries for playback (the synthetic sequences have 8)
 
 
 def tiny_checkpoint(path: Path, seed: int = 0) -> Path:
@@ -32,12 +33,12 @@ def tiny_ckpt(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="session")
 def bundle(tmp_path_factory, tiny_ckpt, synthetic_dataset) -> Path:
-    """A bundle written by ``mnss-kit export`` (the CLI entry), read-only."""
+    """A bundle written by ``mnss-kit export`` (the CLI entry) with a recorded sequence, read-only."""
     from mnss_kit.cli import main
 
     out = tmp_path_factory.mktemp("export_bundle") / "bundle"
     code = main(["export", str(tiny_ckpt), "--out", str(out), "--resolution", BUNDLE_SIZE, "--data", str(synthetic_dataset),
-                 "--device", "snapdragon_8_gen_1", "--no-progress"])
+                 "--device", "snapdragon_8_gen_1", "--sequence", str(synthetic_dataset), "--frames", str(SEQUENCE_FRAMES), "--no-progress"])
     assert code == 0
     return out
 

@@ -45,6 +45,8 @@ public final class Manifest {
     /** The split stage's placement report, or null. */
     public final Json placement;
     public final Golden golden;
+    /** The recorded input sequence for playback, or null if the bundle carries none. */
+    public final Sequence sequence;
     /** Every file of the bundle but the manifest: relative POSIX path to size and SHA-256. */
     public final Map<String, FileEntry> files;
 
@@ -186,6 +188,8 @@ public final class Manifest {
         schedule = new Schedule(root.get("schedule"));
         placement = root.get("placement").isNull() ? null : root.get("placement");
         golden = new Golden(root.get("golden"), resources, boundary);
+        Json sequenceJson = root.opt("sequence");
+        sequence = sequenceJson == null ? null : new Sequence(sequenceJson, resources);
         Map<String, FileEntry> table = new LinkedHashMap<>();
         Json filesJson = root.get("files");
         for (String name : filesJson.keys()) {

@@ -19,6 +19,8 @@ import java.util.TreeSet;
  *   verify   BUNDLE                      problems, one per line (nothing: intact)
  *   read     BUNDLE ACCESS_LOG           JSON summary of the parsed manifest; every JSON path read -> ACCESS_LOG
  *   schedule BUNDLE FRAMES CUT,CUT,...   JSON: per frame reset, jitter, step labels, bindings and uniform values
+ *   sequence BUNDLE                     JSON: the recorded sequence's frames (reset, jitter index) and, per input
+ *                                        resource, each frame's SHA-256 and its first and last values
  *   selftest BUNDLE DUMP ERROR           golden echo through SelfTest, NPU output value 7 off by ERROR LSB;
  *                                        the input resources fed ("inputs: a,b"), then the report
  * </pre>
@@ -40,6 +42,9 @@ public final class ContractTool {
                 break;
             case "schedule":
                 schedule(Manifest.load(bundle), Integer.parseInt(args[2]), args.length > 3 ? args[3] : "");
+                break;
+            case "sequence":
+                sequence(bundle, Manifest.load(bundle));
                 break;
             case "selftest":
                 selftest(bundle, new File(args[2]), Integer.parseInt(args[3]));
@@ -115,6 +120,28 @@ public final class ContractTool {
             frame.put("steps", steps);
             out.add(frame);
         }
+        System.out.print(JsonWriter.write(out));
+    }
+
+    private static void sequence(File bundle, Manifest m) throws Exception {
+        Sequence.Loaded loaded = m.sequence.load(bundle);
+        List<Object> frames = new ArrayList<>();
+        Map<String, List<Object>> arrays = new LinkedHashMap<>();
+        for (int t = 0; t < m.sequence.frames.size(); t++) {
+            Sequence.Frame f = m.sequence.frames.get(t);
+            frames.add(List.of(f.reset, f.jitter.index));
+            for (Map.Entry<String, Tensor> e : loaded.frame(t).entrySet()) {
+                Tensor x = e.getValue();
+                StringBuilder hex = new StringBuilder();
+                for (byte b : java.security.MessageDigest.getInstance("SHA-256").digest(x.data)) {
+                    hex.append(String.format("%02x", b));
+                }
+                arrays.computeIfAbsent(e.getKey(), k -> new ArrayList<>()).add(List.of(hex.toString(), x.realAt(0), x.realAt(x.count() - 1)));
+            }
+        }
+        Map<String, Object> out = new LinkedHashMap<>();
+        out.put("frames", frames);
+        out.put("arrays", arrays);
         System.out.print(JsonWriter.write(out));
     }
 

@@ -76,17 +76,23 @@ public final class JoglGles31 implements Gles31 {
 
     @Override
     public String glGetShaderInfoLog(int shader) {
-        byte[] log = new byte[LOG_BYTES];
-        int[] length = new int[1];
-        gl.glGetShaderInfoLog(shader, log.length, length, 0, log, 0);
-        return new String(log, 0, length[0], StandardCharsets.UTF_8);
+        return infoLog((size, length, log) -> gl.glGetShaderInfoLog(shader, size, length, 0, log, 0));
     }
 
     @Override
     public String glGetProgramInfoLog(int program) {
+        return infoLog((size, length, log) -> gl.glGetProgramInfoLog(program, size, length, 0, log, 0));
+    }
+
+    /** JOGL's info-log calls fill a byte array and its length. */
+    private interface InfoLog {
+        void read(int size, int[] length, byte[] log);
+    }
+
+    private static String infoLog(InfoLog call) {
         byte[] log = new byte[LOG_BYTES];
         int[] length = new int[1];
-        gl.glGetProgramInfoLog(program, log.length, length, 0, log, 0);
+        call.read(log.length, length, log);
         return new String(log, 0, length[0], StandardCharsets.UTF_8);
     }
 
