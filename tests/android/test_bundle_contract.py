@@ -259,3 +259,16 @@ def test_java_core_reads_the_recorded_sequence(java_core, tiny_bundle, manifest,
             array = golden["arrays"][name]
             stored = np.fromfile(tiny_bundle / array["file"], array["dtype"]).reshape(array["shape"])
             np.testing.assert_array_equal(read_sequence_array(tiny_bundle, sequence["arrays"][name])[golden["index"]], stored)
+
+
+def test_java_core_refuses_a_damaged_sequence(java_core, tiny_bundle, manifest, tmp_path):
+    copy = Path(shutil.copytree(tiny_bundle, tmp_path / "bundle"))
+    entry = manifest["sequence"]["arrays"]["motion"]
+    (copy / entry["file"]).write_bytes((copy / entry["file"]).read_bytes()[:-30])
+    result = java_core.java("io.mnsskit.core.ContractTool", "sequence", str(copy))
+    assert result.returncode != 0 and f"{entry['file']}: does not decompress to the {entry['bytes']} bytes" in result.stderr
+    edited = json.loads(json.dumps(manifest))
+    edited["sequence"]["arrays"]["depth"]["shape"][1] += 1
+    (copy / "manifest.json").write_text(json.dumps(edited))
+    result = java_core.java("io.mnsskit.core.ContractTool", "sequence", str(copy))
+    assert result.returncode != 0 and "sequence/arrays/depth" in result.stderr, result.stderr[-2000:]
