@@ -22,6 +22,7 @@ from ..fileio import sha256_file
 from ..gpu.plan import WEIGHTS_PREFIX
 from .manifest import bundle_files, read_manifest, schema_problems, sha256_bytes
 from .npu_files import NpuModel, nchw_to_nhwc, read_onnx, read_tflite
+from .sequence import input_dtypes, read_sequence_array
 
 DTYPE_SIZES = {"int8": 1, "uint8": 1, "int16": 2, "float16": 2, "float32": 4, "int32": 4}
 
@@ -225,8 +226,6 @@ def check_golden(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
 def check_sequence(root: Path, manifest: dict, bad_files: set[str]) -> list[str]:
     """The recorded sequence (if any): one array per input resource, (frames, h, w, channels) at the
     bundle's sizes in the golden dtype, decompressing to the stated bytes, finite."""
-    from .sequence import input_dtypes, read_sequence_array
-
     sequence = manifest.get("sequence")
     if sequence is None:
         return []

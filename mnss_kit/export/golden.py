@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import UserError
 from ..gpu.interpret import ScheduleRunner
 from ..gpu.reference import ReferencePasses
 from ..ops.jitter import subpixel_index
@@ -63,6 +64,30 @@ def frame_from_torch(frame: dict, inputs: list[str]) -> dict:
     out["jitter"] = np.asarray(frame["jitter"][0].numpy(), np.float32)
     out["reset"] = bool(reset is not None and float(reset[0]) > 0.5)
     return out
+
+
+def dataset_frames(data: Path, lr_size, scale: int, inputs: list[str], n: int) -> tuple[list[dict], str] | None:
+    """The first ``n`` numpy frames (``inputs``) of the first sequence in dataset ``data`` at
+    ``lr_size`` and ``scale`` with that many frames, and where they came from; None if none fits."""
+    from ..dataset.loader import eval_sequences
+
+    hr_buffers = [k[len("hr_"):] for k in inputs if k.startswith("hr_")]
+    for seq in eval_sequences(data, hr_buffers=hr_buffers, progress=False):
+        if tuple(seq.meta.lr_size) == tuple(lr_size) and seq.meta.scale == scale and len(seq) >= n:
+            return first_frames(seq, n, inputs), f"dataset {data}, sequence {seq.name}, frames 0..{n - 1}"
+    return None
+
+
+def first_frames(seq, n: int, inputs: list[str]) -> list[dict]:
+    """The first ``n`` frames of dataset sequence ``seq`` as numpy frames; ``UserError`` on NaN or Inf."""
+    frames = []
+    for t, frame in enumerate(seq):
+        if t >= n:
+            break
+        frames.append(frame_from_torch(frame, inputs))
+    if not all(np.isfinite(f[k]).all() for f in frames for k in inputs):
+        raise UserError(f"frames 0..{n - 1} of sequence '{seq.name}' contain NaN or Inf")
+    return frames
 
 
 def golden_arrays(resources: list[dict]) -> dict[str, str]:

@@ -245,6 +245,7 @@ def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: st
     """``golden_frames`` consecutive numpy frames at ``lr_size``: from ``request.data`` when a sequence
     there has that size, else rendered (built-in scene, EGL)."""
     from ..dataset.loader import eval_sequences
+    from .golden import dataset_frames, first_frames
 
     n = request.golden_frames
     hr_buffers = [k[len("hr_"):] for k in inputs if k.startswith("hr_")]
@@ -260,29 +261,4 @@ def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: st
                                  jitter=pattern, hr_samples=1)
         render_dataset(RenderConfig(sequences=[seq_cfg]), Path(tmp), progress=request.progress)
         seq = eval_sequences(Path(tmp), hr_buffers=hr_buffers, progress=False)[0]
-        return _first(seq, n, inputs), f"rendered: built-in scene '{GOLDEN_SCENE}', seed 1, frames 0..{n - 1}"
-
-
-def dataset_frames(data: Path, lr_size, scale: int, inputs: list[str], n: int) -> tuple[list[dict], str] | None:
-    """The first ``n`` numpy frames (``inputs``) of the first sequence in dataset ``data`` at
-    ``lr_size`` and ``scale`` with that many frames, and where they came from; None if none fits."""
-    from ..dataset.loader import eval_sequences
-
-    hr_buffers = [k[len("hr_"):] for k in inputs if k.startswith("hr_")]
-    for seq in eval_sequences(data, hr_buffers=hr_buffers, progress=False):
-        if tuple(seq.meta.lr_size) == tuple(lr_size) and seq.meta.scale == scale and len(seq) >= n:
-            return _first(seq, n, inputs), f"dataset {data}, sequence {seq.name}, frames 0..{n - 1}"
-    return None
-
-
-def _first(seq, n: int, inputs: list[str]) -> list[dict]:
-    from .golden import frame_from_torch
-
-    frames = []
-    for t, frame in enumerate(seq):
-        if t >= n:
-            break
-        frames.append(frame_from_torch(frame, inputs))
-    if not all(np.isfinite(f[k]).all() for f in frames for k in inputs):
-        raise UserError(f"golden frames from sequence '{seq.name}' contain NaN or Inf")
-    return frames
+        return first_frames(seq, n, inputs), f"rendered: built-in scene '{GOLDEN_SCENE}', seed 1, frames 0..{n - 1}"

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from .golden import FORMAT_DTYPES, frame_entry
+from .golden import FORMAT_DTYPES, dataset_frames, frame_entry
 
 SEQUENCE_DIR = "sequence"
 COMPRESSION = "zlib"
@@ -26,8 +26,6 @@ ZLIB_LEVEL = 6
 
 def sequence_frames(data: Path, lr_size, scale: int, inputs: list[str], n: int) -> tuple[list[dict], str]:
     """The first ``n`` frames of the first sequence in dataset ``data`` at the bundle's LR size."""
-    from .pipeline import dataset_frames
-
     if n < 1:
         raise UserError("--frames must be at least 1")
     if not data.is_dir():
