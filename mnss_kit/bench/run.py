@@ -175,7 +175,7 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
     label = _label(name)
     family = family_of(model)
     samples = calibration_samples(model, open_data(calibration, model.scale, hr_buffers=family.hr_inputs), CALIBRATION_SAMPLES)
-    art = quantize_module(npu_module(model), samples, QuantizeOptions(), name=label)
+    art = at_size(quantize_module(npu_module(model), samples, QuantizeOptions(), name=label), npu_module(model), data)
     methods = {"fp32": model_method(model), "int8": model_method(int8_model(model, art))}
     result = evaluate(methods, data, scale=model.scale, max_frames=settings.max_frames, progress=False)
     macs = count_macs(model)
@@ -190,6 +190,21 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
             "cpu_fp32_over_int8": {rt: t["fp32_over_int8"] for rt, t in latency.items()},
             **emulated(name, data, calibration, settings, work / "bundles" / label)}
     return [fp32, int8]
+
+
+def at_size(art, module, data: Path):
+    """``art`` (calibrated at the calibration data's size) retargeted to ``data``'s HR size: the int8
+    graph's tensors have fixed shapes, the scales and zero points stay."""
+    from types import SimpleNamespace
+
+    from ..dataset import format as fmt
+    from ..export.npu_stage import retarget
+    from ..quantize.tflite_writer import to_tflite
+
+    meta = fmt.read_meta(fmt.find_sequences(data)[0])
+    hr_size = (meta.lr_size[0] * meta.scale, meta.lr_size[1] * meta.scale)
+    graph = retarget(art.graph, module, hr_size)
+    return SimpleNamespace(graph=graph, tflite=to_tflite(graph), report=art.report)
 
 
 def _quality(summary: dict) -> dict:
