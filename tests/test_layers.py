@@ -1,6 +1,6 @@
 """The package layout keeps its layers: ops/ is pure numpy, emulate/ never needs torch, and no
 stage imports a later one (render -> dataset -> model -> train -> eval -> quantize -> split ->
-export -> emulate)."""
+export -> emulate -> bench -> stress -> report)."""
 
 import ast
 from pathlib import Path

@@ -73,7 +73,7 @@ def _recovery_cell(stats: dict) -> str:
 
 def markdown(doc: dict) -> str:
     """The stress table, the verdict per scenario, the learned models against TAAU, and what is not covered."""
-    lines = ["# Stress scenarios", "",
+    lines = ["# Stress scenarios", "", f"Methods: {', '.join(doc['methods'])} (same frames, one run).",
              f"Frames to recover: until PSNR is within {doc['settings']['recovery_tolerance_db']} dB of steady state "
              "after each camera cut or pan end (one number per event).", "",
              "| scenario | method | PSNR | SSIM | IF-SSIM | temporal error | disocclusion PSNR | frames to recover |",
