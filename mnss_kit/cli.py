@@ -30,6 +30,8 @@ COMMANDS = {
     "bundle": "mnss_kit.export.bundle_command",
     "emulate": "mnss_kit.emulate.command",
     "bench": "mnss_kit.bench.command",
+    "stress": "mnss_kit.stress.command",
+    "report": "mnss_kit.report.command",
 }
 
 

@@ -1,6 +1,6 @@
 """The package layout keeps its layers: ops/ is pure numpy, emulate/ never needs torch, and no
 stage imports a later one (render -> dataset -> model -> train -> eval -> quantize -> split ->
-export -> emulate)."""
+export -> emulate -> bench -> stress -> report)."""
 
 import ast
 from pathlib import Path
@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 PKG = Path(__file__).resolve().parent.parent / "mnss_kit"
-STAGES = ["render", "dataset", "model", "train", "eval", "quantize", "split", "export", "emulate", "bench"]
+STAGES = ["render", "dataset", "model", "train", "eval", "quantize", "split", "export", "emulate", "bench", "stress", "report"]
 # Stages that may be imported from anywhere: shared foundations, not pipeline steps.
 SHARED = {"ops", "metrics", "config", "errors", "fileio", "shaders", "gpu"}
 # The on-disk dataset format is a contract: the renderer writes it, every later stage reads it.

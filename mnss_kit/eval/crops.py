@@ -1,9 +1,10 @@
-"""Side-by-side PNG crops: reference, then every method, each labelled.
+"""Side-by-side PNG crops: reference, then every method, each labelled; below each method its error map.
 
 For a few frames per sequence two regions are cut out: the one where the
 first method (the model, when there is one) has its highest mean error, and
 a fixed centre crop.  Crops are enlarged with nearest-neighbour filtering so
-single pixels stay visible.
+single pixels stay visible.  The error map shows the mean absolute error over the channels,
+black at 0 through red and yellow to white at :data:`ERROR_FULL_SCALE` and above.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from ..metrics.psnr import psnr
 CROP = 64  # HR pixels per side (smaller frames use their short side)
 PANEL = 192  # minimum displayed panel size in screen pixels
 LABEL_HEIGHT = 16
+ERROR_FULL_SCALE = 0.25  # mean absolute error (display values) drawn white
 
 
 def crop_frame_indices(n: int, cuts: list[int]) -> set[int]:
@@ -66,9 +68,10 @@ def _render(panels: list[tuple[str, np.ndarray, float | None]], title: str) -> b
     side = size * zoom
     gap = 4
     width = len(panels) * (side + gap) + gap
-    canvas = Image.new("RGB", (width, side + 2 * LABEL_HEIGHT + gap), (32, 32, 32))
+    canvas = Image.new("RGB", (width, 2 * side + 2 * LABEL_HEIGHT + 2 * gap), (32, 32, 32))
     draw = ImageDraw.Draw(canvas)
     draw.text((gap, 2), title, fill=(230, 230, 230))
+    draw.text((gap, 2 * LABEL_HEIGHT + side + gap + 2), f"error maps:\n|error| {ERROR_FULL_SCALE}+ is white", fill=(200, 200, 200))
     for i, (name, tile, value) in enumerate(panels):
         pixels = np.round(np.clip(tile, 0.0, 1.0) * 255.0).astype(np.uint8)
         img = Image.fromarray(pixels, "RGB").resize((side, side), Image.NEAREST)
@@ -76,6 +79,16 @@ def _render(panels: list[tuple[str, np.ndarray, float | None]], title: str) -> b
         canvas.paste(img, (left, 2 * LABEL_HEIGHT))
         label = name if value is None else f"{name}  {value:.2f} dB"
         draw.text((left, LABEL_HEIGHT + 2), label, fill=(255, 255, 255))
+        if i > 0:
+            heat = error_heat(np.abs(tile - panels[0][1]).mean(axis=-1))
+            canvas.paste(Image.fromarray(heat, "RGB").resize((side, side), Image.NEAREST), (left, 2 * LABEL_HEIGHT + side + gap))
     buf = io.BytesIO()
     canvas.save(buf, format="PNG")
     return buf.getvalue()
+
+
+def error_heat(error: np.ndarray) -> np.ndarray:
+    """``(H, W)`` absolute error -> ``(H, W, 3)`` uint8: black, red, yellow, white at ERROR_FULL_SCALE."""
+    e = np.clip(error / ERROR_FULL_SCALE, 0.0, 1.0)[..., None] * 3.0
+    rgb = np.clip(e - np.array([0.0, 1.0, 2.0]), 0.0, 1.0)
+    return np.round(rgb * 255.0).astype(np.uint8)

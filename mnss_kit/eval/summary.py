@@ -75,17 +75,21 @@ def recovery(rows: list[dict], tolerance_db: float = RECOVERY_TOLERANCE_DB) -> d
     if PSNR never came back before the next reset or the end).
     """
     psnrs = [r["psnr"] for r in rows]
-    starts = [i for i, r in enumerate(rows) if r["reset"] or i == 0]
     if not psnrs:
         return {"warmup_frames": None, "frames_to_recover": []}
-    bounds = starts + [len(psnrs)]
+    frames = frames_to_recover(psnrs, [i for i, r in enumerate(rows) if r["reset"] and i > 0], tolerance_db)
+    return {"warmup_frames": frames[0], "frames_to_recover": frames[1:]}
+
+
+def frames_to_recover(psnrs: list[float], events: list[int], tolerance_db: float = RECOVERY_TOLERANCE_DB) -> list[int | None]:
+    """Per stretch (frame 0, then each frame of ``events``): frames until PSNR is back within
+    ``tolerance_db`` of the steady median, the median over the second half of every stretch.
+    ``None`` where PSNR never came back before the next event or the end."""
+    bounds = sorted({0, *events}) + [len(psnrs)]
     spans = list(zip(bounds, bounds[1:]))
     steady = [p for a, b in spans for p in psnrs[a + (b - a) // 2 : b]]
     target = median(steady) - tolerance_db
-    frames = []
-    for a, b in spans:
-        frames.append(next((i - a for i in range(a, b) if psnrs[i] >= target), None))
-    return {"warmup_frames": frames[0], "frames_to_recover": frames[1:]}
+    return [next((i - a for i in range(a, b) if psnrs[i] >= target), None) for a, b in spans]
 
 
 def _mean_or_none(values: list) -> float | None:

@@ -1,0 +1,1 @@
+"""Report stage: one HTML page from the bench and stress documents."""

@@ -1,0 +1,31 @@
+"""``mnss-kit report``: one self-contained HTML page from the bench and stress results."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+HELP = "one HTML page (with its PNGs) from the bench JSON and charts and the stress JSON, plots and crops"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--bench", type=Path, help="bench JSON (its charts are read from charts/ beside it)")
+    parser.add_argument("--stress", type=Path, help="stress JSON (its plots/ and crops/ are read beside it)")
+    parser.add_argument("--out", type=Path, default=Path("bench/results/report"),
+                        help="output directory: index.html and its PNGs (default: %(default)s)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing output directory")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..errors import UserError
+    from ..fileio import check_output
+
+    if not args.bench and not args.stress:
+        raise UserError("give --bench FILE, --stress FILE or both")
+    check_output(args.out, "directory")
+
+    from .page import build_report
+
+    page = build_report(args.bench, args.stress, args.out, overwrite=args.overwrite)
+    print(f"wrote {page}")
+    return 0

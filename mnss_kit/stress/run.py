@@ -1,0 +1,97 @@
+"""The stress run: the given models, bicubic and TAAU over every scenario, into one JSON document.
+
+Per scenario and method: mean PSNR, SSIM, IF-SSIM, temporal error, the error inside disocclusion
+masks (ghosting) and the frames until PSNR is back within 0.5 dB of steady state after each camera
+cut and each scenario event (the end of a fast pan); the per-frame PSNR for the plots.  All methods
+see the same frames in one evaluation loop (``mnss-kit eval``'s), so the numbers are paired.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import UserError
+from ..eval.summary import RECOVERY_TOLERANCE_DB, frames_to_recover
+from .scenarios import DATA_CONFIG, NOT_COVERED, SCENARIOS, scenario
+
+FORMAT, VERSION = "mnss-kit-stress", 1
+BASELINES = ("bicubic", "taau")
+METRIC_KEYS = ("psnr", "ssim", "if_ssim", "temporal_error", "disocclusion_psnr", "disocclusion_l1", "disoccluded_pixels")
+
+
+@dataclass
+class StressRequest:
+    models: list[str] = field(default_factory=lambda: ["mnss_x2"])  # checkpoint paths or shipped names
+    work: Path = Path("bench/results/work")  # the rendered scenarios are kept here and reused
+    data: Path | None = None  # already rendered scenario sequences (default: render DATA_CONFIG into work)
+    max_frames: int | None = None
+    crops_dir: Path | None = None
+    progress: bool = True
+
+
+def run_stress(request: StressRequest) -> dict:
+    """Evaluate ``request.models`` and the baselines on every scenario; returns the stress document."""
+    from ..dataset import format as fmt
+    from ..eval.run import evaluate
+
+    data = request.data or _render(request.work / "data" / DATA_CONFIG, request.progress)
+    methods, scale = _methods(request.models, data)
+    result = evaluate(methods, data, scale=scale, max_frames=request.max_frames, crops_dir=request.crops_dir,
+                      progress=request.progress)
+    scenarios = {}
+    for seq_dir in fmt.find_sequences(data):
+        meta = fmt.read_meta(seq_dir)
+        rows = [r for r in result["per_frame"] if r["sequence"] == seq_dir.name]
+        scenarios[seq_dir.name] = scenario_entry(seq_dir.name, result["sequences"][seq_dir.name], rows,
+                                                 [f.time for f in meta.frames], list(methods))
+    missing = [s.name for s in SCENARIOS if s.name not in scenarios]
+    return {"format": FORMAT, "version": VERSION,
+            "settings": {"data": str(data), "models": list(request.models), "max_frames": request.max_frames,
+                         "recovery_tolerance_db": RECOVERY_TOLERANCE_DB, "scale": scale},
+            "methods": list(methods), "scenarios": scenarios,
+            "not_covered": {**NOT_COVERED, **{name: "scenario sequence missing from the data" for name in missing}}}
+
+
+def _render(out: Path, progress: bool) -> Path:
+    from ..render.config import load_render_config
+    from ..render.writer import render_dataset
+
+    render_dataset(load_render_config(DATA_CONFIG), out, progress=progress)  # skips frames already present
+    return out
+
+
+def _methods(models: list[str], data: Path) -> tuple[dict, int]:
+    """``{label: method}`` for every model (by checkpoint name) and the baselines, and the scale."""
+    from ..dataset import format as fmt
+    from ..eval.baselines import baseline_methods
+    from ..eval.methods import model_method
+    from ..model.checkpoint import load
+
+    scale = fmt.read_meta(fmt.find_sequences(data)[0]).scale
+    methods = {}
+    for name in models:
+        model, record = load(name)
+        label = record.get("name") or Path(name).stem
+        if label in methods or label in BASELINES:
+            raise UserError(f"model '{name}': the name '{label}' is given twice or is a baseline's")
+        model.eval()
+        methods[label] = model_method(model)
+    return {**methods, **baseline_methods(scale, BASELINES)}, scale
+
+
+def scenario_entry(name: str, info: dict, rows: list[dict], times: list[float], methods: list[str]) -> dict:
+    """One scenario's document entry from eval's sequence info and per-frame rows."""
+    n = info["frames"]
+    known = scenario(name)
+    event_frames = [next((i for i, t in enumerate(times[:n]) if t >= when - 1e-6), None) for when in (known.events if known else ())]
+    events = sorted({*info["cuts"], *(i for i in event_frames if i is not None and 0 < i < n)})
+    per_frame, stats = {}, {}
+    for m in methods:
+        psnrs = [r["psnr"] for r in sorted((r for r in rows if r["method"] == m), key=lambda r: r["frame"])]
+        recovered = frames_to_recover(psnrs, events)
+        per_frame[m] = psnrs
+        stats[m] = {**{k: info["methods"][m].get(k) for k in METRIC_KEYS},
+                    "warmup_frames": recovered[0], "frames_to_recover": recovered[1:]}
+    return {"case": known.case if known else "(not a built-in scenario)", "frames": n, "cuts": info["cuts"],
+            "events": events, "jitter_pattern": info["jitter_pattern"], "methods": stats, "per_frame_psnr": per_frame}

@@ -1,0 +1,101 @@
+"""Which method is best and worst where, read off the stress document's numbers, and the markdown table.
+
+Ranks use the means of the scenario; a method with no value for a metric (no disocclusion in the
+scenario, no event to recover from) is left out of that metric's ranking.  A recovery that never
+came back within the tolerance ranks last.
+"""
+
+from __future__ import annotations
+
+import math
+
+# metric key, label, True if higher is better
+RANKED = (("psnr", "PSNR", True), ("if_ssim", "IF-SSIM", True), ("ssim", "SSIM", True),
+          ("disocclusion_psnr", "disocclusion PSNR", True), ("recovery", "frames to recover", False))
+
+
+def recovery_score(stats: dict) -> float | None:
+    """The slowest recovery after an event (cut or pan), ``inf`` if one never recovered, None without events."""
+    frames = stats["frames_to_recover"]
+    if not frames:
+        return None
+    return max(math.inf if f is None else f for f in frames)
+
+
+def metric_value(stats: dict, key: str) -> float | None:
+    return recovery_score(stats) if key == "recovery" else stats.get(key)
+
+
+def best_and_worst(methods: dict[str, dict], key: str, higher_is_better: bool) -> tuple[str, str] | None:
+    """``(best, worst)`` method names for ``key``, or None when fewer than two methods have a value."""
+    values = {m: metric_value(s, key) for m, s in methods.items()}
+    values = {m: v for m, v in values.items() if v is not None and not (isinstance(v, float) and math.isnan(v))}
+    if len(values) < 2 or len(set(values.values())) == 1:
+        return None
+    order = sorted(values, key=values.get, reverse=higher_is_better)
+    return order[0], order[-1]
+
+
+def verdicts(doc: dict) -> dict[str, dict[str, tuple[str, str]]]:
+    """``{scenario: {metric label: (best, worst)}}``."""
+    out = {}
+    for name, entry in doc["scenarios"].items():
+        ranks = {label: best_and_worst(entry["methods"], key, up) for key, label, up in RANKED}
+        out[name] = {label: r for label, r in ranks.items() if r is not None}
+    return out
+
+
+def losses_to(doc: dict, method: str, reference: str) -> list[str]:
+    """Scenarios where ``method`` has a lower PSNR or IF-SSIM than ``reference``, with the numbers."""
+    lines = []
+    for name, entry in doc["scenarios"].items():
+        a, b = entry["methods"][method], entry["methods"][reference]
+        for key, label in (("psnr", "PSNR"), ("if_ssim", "IF-SSIM")):
+            if a.get(key) is not None and b.get(key) is not None and a[key] < b[key]:
+                lines.append(f"{name}: {label} {_fmt(key, a[key])} < {_fmt(key, b[key])}")
+    return lines
+
+
+def _fmt(key: str, value) -> str:
+    if value is None:
+        return "-"
+    if key == "recovery":
+        return "never" if value == math.inf else f"{value:.0f}"
+    if key in ("psnr", "disocclusion_psnr"):
+        return f"{value:.2f}"
+    return f"{value:.4f}"
+
+
+def _recovery_cell(stats: dict) -> str:
+    frames = stats["frames_to_recover"]
+    return ", ".join("never" if f is None else str(f) for f in frames) if frames else "-"
+
+
+def markdown(doc: dict) -> str:
+    """The stress table, the verdict per scenario, the learned models against TAAU, and what is not covered."""
+    lines = ["# Stress scenarios", "", f"Methods: {', '.join(doc['methods'])} (same frames, one run).",
+             f"Frames to recover: until PSNR is within {doc['settings']['recovery_tolerance_db']} dB of steady state "
+             "after each camera cut or pan end (one number per event).", "",
+             "| scenario | method | PSNR | SSIM | IF-SSIM | temporal error | disocclusion PSNR | frames to recover |",
+             "|---|---|---|---|---|---|---|---|"]
+    for name, entry in doc["scenarios"].items():
+        for m, s in entry["methods"].items():
+            lines.append(f"| {name} | {m} | {_fmt('psnr', s['psnr'])} | {_fmt('ssim', s['ssim'])} | "
+                         f"{_fmt('if_ssim', s['if_ssim'])} | {_fmt('temporal_error', s['temporal_error'])} | "
+                         f"{_fmt('disocclusion_psnr', s['disocclusion_psnr'])} | {_recovery_cell(s)} |")
+    lines += ["", "## Best and worst per scenario", ""]
+    for name, ranks in verdicts(doc).items():
+        entry = doc["scenarios"][name]
+        parts = [f"{label}: best {b} ({_fmt(key, metric_value(entry['methods'][b], key))}), "
+                 f"worst {w} ({_fmt(key, metric_value(entry['methods'][w], key))})"
+                 for key, label, _ in RANKED if label in ranks for b, w in [ranks[label]]]
+        lines.append(f"- **{name}** ({entry['case']}): " + ("; ".join(parts) or "all methods equal"))
+    learned = [m for m in doc["methods"] if m not in ("bicubic", "taau")]
+    if "taau" in doc["methods"]:
+        lines += ["", "## Learned models against TAAU", ""]
+        for m in learned:
+            losses = losses_to(doc, m, "taau")
+            lines.append(f"- {m} is below TAAU in: " + ("; ".join(losses) if losses else "no scenario (PSNR and IF-SSIM)"))
+    lines += ["", "## Not covered", ""]
+    lines += [f"- {name}: {reason}" for name, reason in doc["not_covered"].items()] or ["- none"]
+    return "\n".join(lines) + "\n"
