@@ -133,6 +133,8 @@ def test_onnxruntime_equals_the_ort_cpu_kernels_on_this_cpu(recon):
 
     inputs = quantize_inputs(recon.graph, [x.numpy() for x in recon.example])
     out = recon.graph.outputs[0]
-    got = OnnxRunner(to_onnx(recon.graph)).run(inputs)[out]
+    runner = OnnxRunner(to_onnx(recon.graph))
+    assert runner.session.get_session_options().get_session_config_entry("session.qdqisint8allowed") == "1"
+    got = runner.run(inputs)[out]
     emulated = open_npu(recon.tflite, "ort-cpu", "numpy").run(dict(zip(recon.graph.inputs, inputs)))[out]
     np.testing.assert_array_equal(got, emulated)
