@@ -31,7 +31,7 @@ from mnss_kit.model.families import build_model
 from mnss_kit.quantize.calibrate import calibrate
 from mnss_kit.quantize.onnx_writer import to_onnx
 from mnss_kit.quantize.params import quantize_graph
-from mnss_kit.quantize.runtime import OnnxRunner, TfliteRunner, quantize_inputs
+from mnss_kit.quantize.runtime import FLOAT_GRAPH_OPTIMIZATION, OnnxRunner, TfliteRunner, quantize_inputs
 from mnss_kit.quantize.tflite_writer import to_tflite
 from mnss_kit.quantize.trace import trace
 
@@ -80,7 +80,7 @@ def main() -> int:
             TfliteRunner(files["int8_tflite"], runtime, num_threads=args.threads),
             TfliteRunner(files["fp32_tflite"], runtime, num_threads=args.threads),
         )
-    runners["ort-cpu"] = (OnnxRunner(files["int8_qdq_onnx"], num_threads=args.threads), OnnxRunner(files["fp32_onnx"], num_threads=args.threads))
+    runners["ort-cpu"] = (OnnxRunner(files["int8_qdq_onnx"], num_threads=args.threads), OnnxRunner(files["fp32_onnx"], num_threads=args.threads, level=FLOAT_GRAPH_OPTIMIZATION))
 
     latency = {}
     for name, (int8_runner, fp32_runner) in runners.items():

@@ -59,10 +59,12 @@ class TfliteRunner:
 # ONNX Runtime fuses QDQ groups into QLinear kernels from this level on; pinned so results do not
 # depend on the library default.  Layout-changing (ORT_ENABLE_ALL) passes are hardware specific.
 ORT_GRAPH_OPTIMIZATION = "ORT_ENABLE_EXTENDED"
+# A float model (calibration) keeps the library's default level.
+FLOAT_GRAPH_OPTIMIZATION = "ORT_ENABLE_ALL"
 
 
-def ort_session_options(num_threads: int = 1, optimize: bool = True):
-    """The session options of the ``ort-cpu`` runtime: pinned optimisation level, int8 QDQ fusion on.
+def ort_session_options(num_threads: int = 1, level: str = ORT_GRAPH_OPTIMIZATION):
+    """The session options of the ``ort-cpu`` runtime: one optimisation level, int8 QDQ fusion on.
 
     Without ``session.qdqisint8allowed`` ONNX Runtime on x86 rewrites some int8 QDQ convolutions
     to uint8 activations (its QDQS8ToU8 pass) and runs them in MLAS's u8 x s8 kernels, which on
@@ -75,20 +77,21 @@ def ort_session_options(num_threads: int = 1, optimize: bool = True):
     options.intra_op_num_threads = num_threads
     options.inter_op_num_threads = 1
     options.log_severity_level = 3
-    level = ORT_GRAPH_OPTIMIZATION if optimize else "ORT_DISABLE_ALL"
     options.graph_optimization_level = getattr(ort.GraphOptimizationLevel, level)
     options.add_session_config_entry("session.qdqisint8allowed", "1")
     return options
 
 
 class OnnxRunner:
-    """ONNX Runtime (CPU) on an ONNX model written by :mod:`.onnx_writer` (NCHW inside)."""
+    """ONNX Runtime (CPU) on an ONNX model written by :mod:`.onnx_writer` (NCHW inside).
 
-    def __init__(self, model, num_threads: int = 1, optimize: bool = True):
+    ``level``: a ``GraphOptimizationLevel`` name; QDQ models run at the ``ort-cpu`` one."""
+
+    def __init__(self, model, num_threads: int = 1, level: str = ORT_GRAPH_OPTIMIZATION):
         import onnxruntime as ort
 
         data = model if isinstance(model, bytes) else model.SerializeToString()
-        self.session = ort.InferenceSession(data, ort_session_options(num_threads, optimize), providers=["CPUExecutionProvider"])
+        self.session = ort.InferenceSession(data, ort_session_options(num_threads, level), providers=["CPUExecutionProvider"])
         self.input_names = [i.name for i in self.session.get_inputs()]
         self.output_names = [o.name for o in self.session.get_outputs()]
 
