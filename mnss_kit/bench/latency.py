@@ -57,7 +57,7 @@ def npu_stage_files(module, hr_size: tuple[int, int], seed: int = 0) -> tuple[di
 
 def npu_latency(module, hr_size: tuple[int, int], repeats: int = 10, warmup: int = 2, threads: int = 1) -> dict:
     """``{runtime: {"int8_ms", "fp32_ms", "fp32_over_int8"}}`` for the NPU stage ``module`` at ``hr_size``."""
-    from ..quantize.runtime import OnnxRunner, TfliteRunner, quantize_inputs
+    from ..quantize.runtime import FLOAT_GRAPH_OPTIMIZATION, OnnxRunner, TfliteRunner, quantize_inputs
 
     files, int8_graph, samples = npu_stage_files(module, hr_size)
     x_float = [np.ascontiguousarray(samples[0][0].transpose(0, 2, 3, 1))]
@@ -65,7 +65,8 @@ def npu_latency(module, hr_size: tuple[int, int], repeats: int = 10, warmup: int
     runners = {runtime: (TfliteRunner(files["int8_tflite"], runtime, num_threads=threads),
                          TfliteRunner(files["fp32_tflite"], runtime, num_threads=threads))
                for runtime in TIMED_RUNTIMES if runtime != "ort-cpu"}
-    runners["ort-cpu"] = (OnnxRunner(files["int8_qdq_onnx"], num_threads=threads), OnnxRunner(files["fp32_onnx"], num_threads=threads))
+    runners["ort-cpu"] = (OnnxRunner(files["int8_qdq_onnx"], num_threads=threads),
+                          OnnxRunner(files["fp32_onnx"], num_threads=threads, level=FLOAT_GRAPH_OPTIMIZATION))
     latency = {}
     for name, (int8_runner, fp32_runner) in runners.items():
         med = interleaved_medians({"int8": lambda r=int8_runner: r.run(x_int8), "fp32": lambda r=fp32_runner: r.run(x_float)},

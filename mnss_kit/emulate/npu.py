@@ -20,11 +20,9 @@ from ..errors import UserError
 from .interpreter import NumpyInterpreter
 from ..ops.runtimes import RUNTIMES, Runtime
 from .npu_graph import NpuGraph, read_npu_graph
+from ..quantize.runtime import ort_session_options
 
 BACKENDS = ("numpy", "litert", "onnxruntime")
-# ONNX Runtime fuses QDQ groups into QLinear kernels from this level on; pinned so results do not
-# depend on the library default.  Layout-changing (ORT_ENABLE_ALL) passes are hardware specific.
-ORT_GRAPH_OPTIMIZATION = "ORT_ENABLE_EXTENDED"
 
 
 def get_npu_profile(name: str) -> Runtime:
@@ -103,15 +101,8 @@ class OnnxNpu:
         import onnxruntime as ort
 
         self.graph = graph
-        options = ort.SessionOptions()
-        options.intra_op_num_threads = 1
-        options.inter_op_num_threads = 1
-        options.log_severity_level = 3
-        options.graph_optimization_level = getattr(ort.GraphOptimizationLevel, ORT_GRAPH_OPTIMIZATION)
-        # Without this, ORT on x86 runs int8 QDQ convolutions as float Conv (ARM builds fuse them).
-        options.add_session_config_entry("session.qdqisint8allowed", "1")
         try:
-            self.session = ort.InferenceSession(model, options, providers=["CPUExecutionProvider"])
+            self.session = ort.InferenceSession(model, ort_session_options(), providers=["CPUExecutionProvider"])
         except Exception as e:  # onnxruntime raises its own exception types for bad models
             raise UserError(f"{source}: ONNX Runtime cannot load it ({str(e).strip().splitlines()[0][:200]})") from None
         inputs = [i.name for i in self.session.get_inputs()]

@@ -7,7 +7,8 @@ Every command, file and test names a runtime by its key in :data:`RUNTIMES`:
 ``xnnpack``         LiteRT's default, the XNNPACK delegate (``AUTO``); builtin kernels for the
                     ops XNNPACK declines.
 ``ort-cpu``         ONNX Runtime CPU execution provider on ``npu_qdq.onnx`` (MLAS, QDQ groups
-                    fused to QLinear kernels).
+                    fused to int8 QLinear kernels, which give the same integers with and
+                    without VNNI: docs/emulator.md).
 
 A :class:`Runtime` is plain data: how to start it (the engine and, for LiteRT, the op
 resolver) and, per int8 op, the one formula it uses.  The formulas are defined once in

@@ -98,10 +98,10 @@ def calibrate(graph: Graph, samples: Sequence[Sequence[np.ndarray]], method: str
 def float_activations(graph: Graph, samples):
     """Yield every activation of the float graph per sample, ``{name: NHWC array}`` (via the float ONNX graph)."""
     from .onnx_writer import to_onnx
-    from .runtime import OnnxRunner
+    from .runtime import FLOAT_GRAPH_OPTIMIZATION, OnnxRunner
 
     names = graph.activations()
-    runner = OnnxRunner(to_onnx(graph, quantize=False, expose=names))
+    runner = OnnxRunner(to_onnx(graph, quantize=False, expose=names), level=FLOAT_GRAPH_OPTIMIZATION)
     for sample in samples:
         nhwc = [np.transpose(x, (0, 2, 3, 1)) for x in sample]
         values = runner.run(nhwc)

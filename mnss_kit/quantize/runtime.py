@@ -56,20 +56,42 @@ class TfliteRunner:
         return {n: self.interpreter.get_tensor(self.details[n]).copy() for n in list(self.outputs) + list(names or [])}
 
 
-class OnnxRunner:
-    """ONNX Runtime (CPU) on an ONNX model written by :mod:`.onnx_writer` (NCHW inside)."""
+# ONNX Runtime fuses QDQ groups into QLinear kernels from this level on; pinned so results do not
+# depend on the library default.  Layout-changing (ORT_ENABLE_ALL) passes are hardware specific.
+ORT_GRAPH_OPTIMIZATION = "ORT_ENABLE_EXTENDED"
+# A float model (calibration) keeps the library's default level.
+FLOAT_GRAPH_OPTIMIZATION = "ORT_ENABLE_ALL"
 
-    def __init__(self, model, num_threads: int = 1, optimize: bool = True):
+
+def ort_session_options(num_threads: int = 1, level: str = ORT_GRAPH_OPTIMIZATION):
+    """The session options of the ``ort-cpu`` runtime: one optimisation level, int8 QDQ fusion on.
+
+    Without ``session.qdqisint8allowed`` ONNX Runtime on x86 rewrites some int8 QDQ convolutions
+    to uint8 activations (its QDQS8ToU8 pass) and runs them in MLAS's u8 x s8 kernels, which on
+    CPUs without VNNI sum pairs of products in saturating int16: results then depend on the CPU.
+    With the flag the convolutions stay int8 x int8, whose integers do not.
+    """
+    import onnxruntime as ort
+
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = num_threads
+    options.inter_op_num_threads = 1
+    options.log_severity_level = 3
+    options.graph_optimization_level = getattr(ort.GraphOptimizationLevel, level)
+    options.add_session_config_entry("session.qdqisint8allowed", "1")
+    return options
+
+
+class OnnxRunner:
+    """ONNX Runtime (CPU) on an ONNX model written by :mod:`.onnx_writer` (NCHW inside).
+
+    ``level``: a ``GraphOptimizationLevel`` name; QDQ models run at the ``ort-cpu`` one."""
+
+    def __init__(self, model, num_threads: int = 1, level: str = ORT_GRAPH_OPTIMIZATION):
         import onnxruntime as ort
 
-        so = ort.SessionOptions()
-        so.intra_op_num_threads = num_threads
-        so.inter_op_num_threads = 1
-        so.log_severity_level = 3
-        if not optimize:
-            so.graph_optimization_level = ort.GraphOptimizationLevel.ORT_DISABLE_ALL
         data = model if isinstance(model, bytes) else model.SerializeToString()
-        self.session = ort.InferenceSession(data, so, providers=["CPUExecutionProvider"])
+        self.session = ort.InferenceSession(data, ort_session_options(num_threads, level), providers=["CPUExecutionProvider"])
         self.input_names = [i.name for i in self.session.get_inputs()]
         self.output_names = [o.name for o in self.session.get_outputs()]
 

@@ -8,12 +8,14 @@ the rounding rules, where runtimes differ, are exercised.
 
 Two facts of ONNX Runtime 1.31 on x86-64 shape these tests:
 
-* By default it does not fuse a QDQ convolution with int8 activations into QLinearConv on x86
-  (``session.qdqisint8allowed`` is off there, on for ARM): it runs a float ``Conv`` between
-  DequantizeLinear and QuantizeLinear, whose float32 sums decide near-ties arbitrarily (about
-  one value in 10^4 differs from any integer formula).  The kernel set reproduces the fused
-  integer kernel, which is checked against a session with the flag set; the emulator's
-  backend is checked as well once it sets the flag.
+* By default it does not fuse a QDQ convolution with int8 activations into an int8 QLinearConv
+  on x86 (``session.qdqisint8allowed`` is off there, on for ARM): a one-op graph runs a float
+  ``Conv`` between DequantizeLinear and QuantizeLinear, whose float32 sums decide near-ties
+  arbitrarily (about one value in 10^4 differs from any integer formula), and inside larger
+  graphs some convolutions are rewritten to uint8 activations and run in MLAS's u8 x s8
+  kernels, which saturate on CPUs without VNNI (docs/emulator.md).  The kernel set reproduces
+  the fused int8 kernel, which is checked against a session with the flag set, as the
+  emulator's backend and the quantize stage's runner set it.
 * AVERAGE_POOL_2D and RESIZE_BILINEAR run as float kernels; their ``ops.quant_ops`` formulas
   are compared with the backend directly.
 """
