@@ -36,6 +36,7 @@ sys.path.insert(0, str(REPO))
 from quantize_study import DOC, DRIFT_JSON, STUDY_JSON, plain, write_doc  # noqa: E402  (same folder)
 
 from mnss_kit.fileio import atomic_write_json  # noqa: E402
+from mnss_kit.model.families import npu_module  # noqa: E402
 from mnss_kit.ops.runtimes import runtime_names  # noqa: E402
 
 WINDOW = 100  # frames per compared window
@@ -164,12 +165,12 @@ def run(args) -> dict:
     model, record = load(args.model)
     model.eval()
     samples = calibration_samples(model, open_data(args.calib, model.scale), args.calib_frames, progress=not args.no_progress)
-    art = quantize_module(model.recon, samples, QuantizeOptions(method=args.method, int16=args.a16), name="drift")
+    art = quantize_module(npu_module(model), samples, QuantizeOptions(method=args.method, int16=args.a16), name="drift")
     if box[2:] != tuple(meta.lr_size):  # same scales and zero points, shapes traced again for the crop
         from mnss_kit.export.npu_stage import retarget
         from mnss_kit.quantize.tflite_writer import to_tflite
 
-        graph = retarget(art.graph, model.recon, (box[2] * meta.scale, box[3] * meta.scale))
+        graph = retarget(art.graph, npu_module(model), (box[2] * meta.scale, box[3] * meta.scale))
         art = dataclasses.replace(art, graph=graph, tflite=to_tflite(graph))
     methods = {"fp32": model_method(model), "int8": model_method(int8_model(model, art, args.runtime))}
 

@@ -27,6 +27,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "bench"))
 
 from mnss_kit.fileio import atomic_output_path, atomic_write_json, atomic_write_text  # noqa: E402
+from mnss_kit.model.families import npu_module  # noqa: E402
 from mnss_kit.ops.runtimes import DEFAULT_RUNTIME, get_runtime, runtime_names  # noqa: E402
 
 STUDY_JSON = REPO / "bench" / "results" / "quantize_study.json"
@@ -92,7 +93,7 @@ def measure(args, argv: list[str]) -> dict:
         for a16 in args.a16:
             name = setting_name(method, a16)
             logging.info("quantizing: %s", name)
-            arts[name] = quantize_module(model.recon, samples, QuantizeOptions(method=method, int16=a16), name=name)
+            arts[name] = quantize_module(npu_module(model), samples, QuantizeOptions(method=method, int16=a16), name=name)
             requested[name] = a16
     first = next(iter(arts.values()))
     logging.info("runtime agreement of %s", first.report["model"])
@@ -163,7 +164,7 @@ def measure_latency(model, arts: dict, sample, repeats: int) -> tuple[dict, floa
     from mnss_kit.quantize.tflite_writer import to_tflite
     from mnss_kit.quantize.trace import trace
 
-    float_graph = trace(model.recon, [torch.from_numpy(np.asarray(x, np.float32)) for x in sample])
+    float_graph = trace(npu_module(model), [torch.from_numpy(np.asarray(x, np.float32)) for x in sample])
     calls = {"fp32": _call(TfliteRunner(to_tflite(float_graph), "xnnpack"), [np.ascontiguousarray(np.transpose(x, (0, 2, 3, 1))) for x in sample])}
     for name, art in arts.items():
         calls[name] = _call(TfliteRunner(art.tflite, "xnnpack"), quantize_inputs(art.graph, list(sample), "xnnpack"))
