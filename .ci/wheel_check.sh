@@ -12,7 +12,7 @@ trap 'rm -rf "$work"' EXIT
 # Build from a copy of the tracked files so no build/ directory in the checkout leaks stale files.
 mkdir "$work/src"
 git ls-files -z | tar --null -T - -c | tar -x -C "$work/src"
-python3 -m pip wheel -q --no-deps "$work/src" -w "$work/dist"
+.venv/bin/python -m pip wheel -q --no-deps "$work/src" -w "$work/dist"  # the venv scripts/setup.sh made
 wheel=$(ls "$work"/dist/mnss_kit-*.whl)
 built=$SECONDS
 

@@ -135,4 +135,4 @@ def resolve_asset(name: str, cfg: RenderConfig, what: str) -> Path:
     for candidate in (Path(name), Path(cfg.source_dir) / name, CONFIG_DIR / "scenes" / name, CONFIG_DIR / "scenes" / f"{name}.yaml"):
         if candidate.is_file():
             return candidate
-    raise UserError(f"{what} '{name}' not found (looked relative to the working directory, {cfg.source_dir} and mnss_kit/configs/scenes/)")
+    raise UserError(f"{what} '{name}' not found (looked relative to the working directory, {cfg.source_dir} and {CONFIG_DIR / 'scenes'})")
