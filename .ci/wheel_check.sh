@@ -17,8 +17,9 @@ wheel=$(ls "$work"/dist/mnss_kit-*.whl)
 built=$SECONDS
 
 python3 -m venv "$work/venv"
-# torch is pinned: the CPU build of 2.13.0 is what this toolkit is tested with.
-"$work/venv/bin/pip" install -q --disable-pip-version-check "torch==2.13.0" "$wheel"
+# torch is pinned: the CPU build of 2.13.0 is what this toolkit is tested with.  --no-compile: byte-
+# compiling torch's files would take most of the install time; imports compile what they use.
+"$work/venv/bin/pip" install -q --no-compile --disable-pip-version-check "torch==2.13.0" "$wheel"
 installed=$SECONDS
 
 mkdir "$work/run" && cd "$work/run"
