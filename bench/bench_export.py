@@ -6,7 +6,7 @@ Two settings, each repeated (medians):
                the export itself: load, quantize + retarget to 720p, golden frames (rendered at
                640x360, 3 frames), write + check.
 ``default``    no ``--data``: the export also renders its calibration data (the quantize
-               stage's default, configs/data/tiny.yaml).
+               stage's default, mnss_kit/configs/data/tiny.yaml).
 
 The model is the mnss_x2 config with random weights (timing does not depend on training).
 The machine is shared; compare numbers from one run only.

@@ -23,7 +23,7 @@ from mnss_kit.model.families import build_model, npu_module
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--model", default="mnss_x2", help="model config name or path (configs/models)")
+    parser.add_argument("--model", default="mnss_x2", help="model config name or path (mnss_kit/configs/models)")
     parser.add_argument("--width", type=int, default=1280, help="HR output width")
     parser.add_argument("--height", type=int, default=720, help="HR output height")
     parser.add_argument("--repeats", type=int, default=10)

@@ -20,6 +20,7 @@ import re
 import yaml
 
 from .errors import UserError
+from .resources import CONFIG_DIR
 
 
 class _Loader(yaml.SafeLoader):
@@ -38,8 +39,6 @@ def parse_yaml(text: str):
 
 T = TypeVar("T")
 
-REPO_ROOT = Path(__file__).resolve().parent.parent
-CONFIG_DIR = REPO_ROOT / "configs"
 
 
 def read_yaml(path: str | Path) -> dict:
@@ -182,7 +181,7 @@ def to_dict(obj: Any) -> Any:
 
 
 def resolve_config_path(name_or_path: str, kind: str) -> Path:
-    """Accept a path, or a bare name found under ``configs/<kind>/NAME.yaml``."""
+    """Accept a path, or a bare name found under ``mnss_kit/configs/<kind>/NAME.yaml``."""
     p = Path(name_or_path)
     if p.is_file():
         return p

@@ -63,8 +63,8 @@ def plan(train_x2: Path, test_x2: Path, eval_frames: int) -> tuple[list[Run], li
     renders = []
     for pattern in JITTER_ORDER:
         train_dir, test_dir = WORK / "data" / f"train_{pattern}", WORK / "data" / f"test_{pattern}"
-        renders += [("configs/data/ablation_train.yaml", pattern, train_dir),
-                    ("configs/data/ablation_test.yaml", pattern, test_dir)]
+        renders += [("ablation_train", pattern, train_dir),
+                    ("ablation_test", pattern, test_dir)]
         runs.append(Run(f"jitter_{pattern}", "jitter", pattern, train_dir, test_dir))
     return runs, renders
 
@@ -79,7 +79,7 @@ def cli(argv: list[str]) -> None:
 
 def render(config: str, pattern: str, out: Path) -> None:
     """Render (resumable: the renderer skips frames already on disk)."""
-    cli(["render", str(REPO / config), "--out", str(out), "--set", f"jitter={pattern}", "--no-progress"])
+    cli(["render", config, "--out", str(out), "--set", f"jitter={pattern}", "--no-progress"])
 
 
 def train(run: Run) -> Path:
@@ -217,7 +217,7 @@ def render_doc(results: dict, checks: list[dict], chart_name: str) -> str:
         "",
         "## Jitter: MNSS pattern against centre sampling",
         "",
-        "Train and test sets (`configs/data/ablation_train.yaml`, `ablation_test.yaml`, 160x90 -> 320x180) "
+        "Train and test sets (`mnss_kit/configs/data/ablation_train.yaml`, `ablation_test.yaml`, 160x90 -> 320x180) "
         "rendered twice with identical scenes, seeds and cameras, once per pattern; the same config is "
         "trained on each and evaluated on its own test set (the HR references are the same). With centre "
         "sampling at x2 the LR sample sits on the corner between the four sub-pixels of its tile; "

@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Render shipped data configs and run ``data check`` on each: the toolkit's renders must pass its own check.
 
-    python scripts/check_data_configs.py OUT                 # every configs/data/*.yaml
+    python scripts/check_data_configs.py OUT                 # every mnss_kit/configs/data/*.yaml
     python scripts/check_data_configs.py OUT train_x2 test_x2
 
 The tests cover the tiny configs (tests/faults/test_render_faults.py); this covers the large ones,
@@ -30,7 +30,7 @@ def check(config: str, out: Path) -> int:
 def run(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path, help="directory for the renders (one sub-directory per config)")
-    parser.add_argument("configs", nargs="*", help="data config names (default: every configs/data/*.yaml)")
+    parser.add_argument("configs", nargs="*", help="data config names (default: every mnss_kit/configs/data/*.yaml)")
     args = parser.parse_args(argv)
     configs = args.configs or sorted(p.stem for p in (CONFIG_DIR / "data").glob("*.yaml"))
     failed = [c for c in configs if check(c, args.out) != 0]

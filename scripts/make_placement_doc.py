@@ -75,7 +75,7 @@ def render(args, label, resolution, devices, plans, chart_name, calib) -> str:
         f"`{label}` (placement and estimates depend on the architecture, not on trained weights).",
         "",
         f"**All milliseconds below are estimates, not measurements.** {ESTIMATE_NOTE} "
-        "Peaks, achievable fractions and handoff costs come from `configs/devices/*.yaml`, where each "
+        "Peaks, achievable fractions and handoff costs come from `mnss_kit/configs/devices/*.yaml`, where each "
         "figure cites its public source or says it is a rough guess.  Stage times assume the stages run "
         "one after another; tensors are fp16 on the GPU and int8 on the NPU.  The rules are in "
         "`mnss_kit/split/dataflow.py` (ops, bytes) and `mnss_kit/split/estimate.py` (roofline).",

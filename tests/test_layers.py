@@ -10,7 +10,7 @@ import pytest
 PKG = Path(__file__).resolve().parent.parent / "mnss_kit"
 STAGES = ["render", "dataset", "model", "train", "eval", "quantize", "split", "export", "emulate", "bench", "stress", "report"]
 # Stages that may be imported from anywhere: shared foundations, not pipeline steps.
-SHARED = {"ops", "metrics", "config", "errors", "fileio", "shaders", "gpu"}
+SHARED = {"ops", "metrics", "config", "errors", "fileio", "resources", "shaders", "gpu"}
 # The on-disk dataset format is a contract: the renderer writes it, every later stage reads it.
 CONTRACT_MODULES = {"mnss_kit.dataset.format", "mnss_kit.dataset.exr"}
 

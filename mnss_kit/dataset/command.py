@@ -34,7 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    "per-buffer image files described by --mapping")
     p.add_argument("src", type=Path, help="the capture directory")
     p.add_argument("--out", type=Path, required=True, help="output dataset directory (must be empty or absent)")
-    p.add_argument("--mapping", default=None, help="images: a mapping YAML, or a name under configs/import/ (e.g. packed8)")
+    p.add_argument("--mapping", default=None, help="images: a mapping YAML, or a name under mnss_kit/configs/import/ (e.g. packed8)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
 
 
@@ -120,7 +120,7 @@ def run_import(args: argparse.Namespace) -> int:
         from .importers.images import import_images
 
         if not args.mapping:
-            raise UserError("the images format needs --mapping (a YAML path, or a name under configs/import/)")
+            raise UserError("the images format needs --mapping (a YAML path, or a name under mnss_kit/configs/import/)")
         result = import_images(args.src, args.mapping, args.out, overwrite=args.overwrite)
     for line in result.warnings + result.notes:
         print(line)

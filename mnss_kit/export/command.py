@@ -25,7 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "must match the one report.json records; default: the path recorded there)")
     parser.add_argument("--resolution", metavar="WxH",
                         help=f"output (HR) size the bundle runs at (default {DEFAULT_RESOLUTION_TEXT}; a quantize directory fixes it)")
-    parser.add_argument("--device", metavar="NAME", help="device profile (configs/devices): records the GPU/NPU placement and estimates")
+    parser.add_argument("--device", metavar="NAME", help="device profile (mnss_kit/configs/devices): records the GPU/NPU placement and estimates")
     parser.add_argument("--placement", choices=placement_modes(), default="default", help="placement mode for --device (default: the model's split)")
     parser.add_argument("--data", metavar="DIR",
                         help="dataset for calibration, and for golden frames when its LR size matches (default: render)")

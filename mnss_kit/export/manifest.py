@@ -17,11 +17,12 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..fileio import check_format, read_json, sha256_file
+from ..resources import SCHEMA_DIR
 
 FORMAT = "mnss-kit-bundle"
 FORMAT_VERSION = 1
 MANIFEST_NAME = "manifest.json"
-SCHEMA_PATH = Path(__file__).resolve().parent.parent / "schemas" / "manifest.schema.json"
+SCHEMA_PATH = SCHEMA_DIR / "manifest.schema.json"
 
 
 class NewerFormatError(UserError):

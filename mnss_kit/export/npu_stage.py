@@ -97,7 +97,7 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
         "source": "checkpoint",
         "method": method,
         "calibration_samples": len(samples),
-        "calibration_data": str(data) if data else f"rendered configs/data/{quantize_api.DEFAULT_DATA_CONFIG}.yaml",
+        "calibration_data": str(data) if data else f"rendered mnss_kit/configs/data/{quantize_api.DEFAULT_DATA_CONFIG}.yaml",
         "calibrated_at_size": calibrated_at,
         **report_summary(report),
     }

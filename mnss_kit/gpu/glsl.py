@@ -13,7 +13,9 @@ import hashlib
 import re
 from pathlib import Path
 
-RUNTIME_SHADER_DIR = Path(__file__).resolve().parent.parent / "shaders" / "runtime"
+from ..resources import SHADER_DIR
+
+RUNTIME_SHADER_DIR = SHADER_DIR / "runtime"
 INCLUDE_LINE = re.compile(r'^[ \t]*#[ \t]*include[ \t]+"([^"]+)"[ \t]*(?://.*)?$', re.M)
 VERSION_LINE = "#version 310 es"
 

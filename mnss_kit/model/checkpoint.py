@@ -22,13 +22,13 @@ from .. import __version__
 from ..config import to_dict
 from ..errors import UserError
 from ..fileio import atomic_output_path, sha256_file
+from ..resources import ZOO_DIR
 from .config import model_config_from_dict
 from .families import build_model
 from .macs import count_macs
 
 FORMAT_TAG = "mnss-kit-checkpoint"
 FORMAT_VERSION = 1
-ZOO_DIR = Path(__file__).resolve().parent.parent / "zoo"
 CALLER_KEYS = ("jitter_pattern", "data_fingerprint", "training")  # what the trainer supplies
 PLAIN_TYPES = (dict, list, tuple, str, int, float, bool, type(None))
 

@@ -8,7 +8,7 @@ HELP = "list shipped checkpoints and model configs with MACs per output pixel"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--configs", action="store_true", help="also list configs/models/*.yaml with the MACs of each")
+    parser.add_argument("--configs", action="store_true", help="also list mnss_kit/configs/models/*.yaml with the MACs of each")
     parser.add_argument("--json", action="store_true", help="print the listing as JSON instead of a table")
 
 
@@ -30,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         print("No checkpoint is shipped yet (mnss_kit/zoo/ is empty); train one with `mnss-kit train`.")
     if "configs" in listing:
-        print("\nModel configs (configs/models/):")
+        print("\nModel configs (mnss_kit/configs/models/):")
         print(_table(listing["configs"], ("name", "family", "scale", "macs_per_pixel", "npu_macs_per_pixel", "params")))
     return 0
 

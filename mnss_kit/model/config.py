@@ -1,6 +1,6 @@
 """The ``model:`` section of a model config file, and reading it.
 
-A model config file (``configs/models/NAME.yaml``)::
+A model config file (``mnss_kit/configs/models/NAME.yaml``)::
 
     schema: 1
     model:  {family: mnss, scale: 2, ...}   # this module; the family's config class reads the rest
@@ -35,7 +35,7 @@ def model_config_from_dict(section: dict, source: str = "model config"):
 
 
 def load_model_config(name_or_path: str | Path, overrides: list[str] | None = None):
-    """Read the ``model:`` section of a config file (a path or a name under ``configs/models``).
+    """Read the ``model:`` section of a config file (a path or a name under ``mnss_kit/configs/models``).
 
     ``overrides`` are ``--set`` items such as ``model.recon_width=64``.
     """
@@ -53,5 +53,5 @@ def load_model_config(name_or_path: str | Path, overrides: list[str] | None = No
 
 
 def config_names() -> list[str]:
-    """Names of the shipped model configs (``configs/models/*.yaml``), sorted."""
+    """Names of the shipped model configs (``mnss_kit/configs/models/*.yaml``), sorted."""
     return sorted(p.stem for p in (CONFIG_DIR / "models").glob("*.yaml"))

@@ -2,7 +2,7 @@
 
 ``quantize.tflite_writer`` writes these ops at these versions, ``emulate.npu_graph`` reads and
 the numpy interpreter runs them, ``split`` calls a stage NPU-eligible only if every op it needs
-is here, and each device profile (``configs/devices/*.yaml``) lists which of them its NPU
+is here, and each device profile (``mnss_kit/configs/devices/*.yaml``) lists which of them its NPU
 accepts (checked on load).  ``quantize.trace`` maps PyTorch modules onto them; the torch
 constructs it accepts are in its docstring.
 

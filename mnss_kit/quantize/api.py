@@ -69,7 +69,7 @@ def quantize(request: QuantizeRequest):
         samples = calibration_samples(model, sequences, r.frames, progress=r.progress)
         options = QuantizeOptions(method=r.method, int16=r.a16, qat_steps=r.qat)
         art = quantize_module(npu_module(model), samples, options, name=Path(r.model).stem)
-        art.report["data"] = str(r.data) if r.data else f"rendered configs/data/{DEFAULT_DATA_CONFIG}.yaml"
+        art.report["data"] = str(r.data) if r.data else f"rendered mnss_kit/configs/data/{DEFAULT_DATA_CONFIG}.yaml"
         art.report["checkpoint"] = identity(r.model, record)  # export checks it is given this very file
         if r.pipeline_frames:
             eval_dir = r.eval_data if r.eval_data else data

@@ -20,7 +20,7 @@ HELP = "quantize the NPU stage to int8: npu.tflite, npu_qdq.onnx, encodings.json
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", metavar="MODEL", help="checkpoint path or shipped model name")
-    parser.add_argument("--data", metavar="DIR", help=f"dataset directory for calibration (default: render configs/data/{DEFAULT_DATA_CONFIG}.yaml)")
+    parser.add_argument("--data", metavar="DIR", help=f"dataset directory for calibration (default: render mnss_kit/configs/data/{DEFAULT_DATA_CONFIG}.yaml)")
     parser.add_argument("--method", choices=METHODS, default="minmax", help="activation range method (default: minmax)")
     parser.add_argument("--out", metavar="DIR", help="output directory (default: <model>-int8)")
     parser.add_argument("--a16", type=int, default=0, metavar="N", help="give the N most sensitive tensors 16-bit activations (A16W8)")

@@ -1,6 +1,6 @@
 """Built-in G-buffer renderer (OpenGL 3.3 through EGL) and scene import.
 
-    config.py     data config (configs/data/*.yaml) -> SequenceConfig
+    config.py     data config (mnss_kit/configs/data/*.yaml) -> SequenceConfig
     scenes/       built-in scenes (arena, town, flight) and the glTF/OBJ import hook
     camera.py     matrices, jitter, keyframed camera paths (camera-path YAML format)
     renderer.py   shadow map, deferred G-buffer, lighting, particles; LR + 16-spp HR reference

@@ -6,7 +6,7 @@ camera looks down its -z axis (OpenGL).  ``proj`` maps depth to OpenGL NDC
 [-1, 1], which the default depth range turns into standard [0, 1] hardware
 depth ``d = f (z - n) / (z (f - n))``.
 
-Camera-path YAML (``configs/scenes/*.yaml``)::
+Camera-path YAML (``mnss_kit/configs/scenes/*.yaml``)::
 
     version: 1
     fov: 60                 # default vertical field of view, degrees

@@ -9,7 +9,7 @@ HELP = "render built-in or imported scenes into LR/HR dataset sequences (OpenGL 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", nargs="?", default="default",
-                        help="data config: a YAML path or a name under configs/data/ (default: default)")
+                        help="data config: a YAML path or a name under mnss_kit/configs/data/ (default: default)")
     parser.add_argument("--out", required=True, help="output directory; one sub-directory per sequence")
     parser.add_argument("--shard", default=None, metavar="I/N",
                         help="render only shard I of N (disjoint frame sets; outputs merge by copying)")

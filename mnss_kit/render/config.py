@@ -1,4 +1,4 @@
-"""Data config (``configs/data/*.yaml``): the sequences ``mnss-kit render`` writes.
+"""Data config (``mnss_kit/configs/data/*.yaml``): the sequences ``mnss-kit render`` writes.
 
     version: 1
     defaults:              # merged into every sequence (a sequence's own keys win)
@@ -13,7 +13,7 @@
         particles: true
 
 Paths (scene files, camera paths) are taken as given, then relative to the
-config file, then under ``configs/scenes/``.  ``--set key=value`` overrides a
+config file, then under ``mnss_kit/configs/scenes/``.  ``--set key=value`` overrides a
 sequence key in every sequence; ``--set NAME.key=value`` in sequence NAME only.
 """
 
@@ -83,7 +83,7 @@ class RenderConfig:
 
 
 def load_render_config(name_or_path: str, overrides: list[str] | None = None) -> RenderConfig:
-    """Read a data config by path or name (``configs/data/NAME.yaml``), apply ``--set`` overrides."""
+    """Read a data config by path or name (``mnss_kit/configs/data/NAME.yaml``), apply ``--set`` overrides."""
     path = resolve_config_path(name_or_path, "data")
     data = read_yaml(path)
     source = str(path)
@@ -131,8 +131,8 @@ def load_render_config(name_or_path: str, overrides: list[str] | None = None) ->
 
 
 def resolve_asset(name: str, cfg: RenderConfig, what: str) -> Path:
-    """A scene or camera file: as given, relative to the config, or under ``configs/scenes/``."""
+    """A scene or camera file: as given, relative to the config, or under ``mnss_kit/configs/scenes/``."""
     for candidate in (Path(name), Path(cfg.source_dir) / name, CONFIG_DIR / "scenes" / name, CONFIG_DIR / "scenes" / f"{name}.yaml"):
         if candidate.is_file():
             return candidate
-    raise UserError(f"{what} '{name}' not found (looked relative to the working directory, {cfg.source_dir} and configs/scenes/)")
+    raise UserError(f"{what} '{name}' not found (looked relative to the working directory, {cfg.source_dir} and {CONFIG_DIR / 'scenes'})")

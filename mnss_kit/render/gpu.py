@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
 from ..errors import UserError
+from .. import resources
 
-SHADER_DIR = Path(__file__).resolve().parent.parent / "shaders" / "render"
+SHADER_DIR = resources.SHADER_DIR / "render"
 GL_SRGB8_ALPHA8 = 0x8C43
 _context = None
 

@@ -14,10 +14,10 @@ HELP = "place each stage on GPU or NPU for a device profile and estimate ms per 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "model",
-        help="checkpoint path or shipped name; a model config (configs/models NAME or path) also works: "
+        help="checkpoint path or shipped name; a model config (mnss_kit/configs/models NAME or path) also works: "
         "placement and estimates do not depend on the weights",
     )
-    parser.add_argument("--device", required=True, help="device profile: a YAML path or a name under configs/devices/")
+    parser.add_argument("--device", required=True, help="device profile: a YAML path or a name under mnss_kit/configs/devices/")
     parser.add_argument("--placement", choices=placement_modes(), default="default",
                         help="default (the model's split), all-gpu, aa-on-npu, or auto (lowest estimate)")
     parser.add_argument("--auto", action="store_const", const="auto", dest="placement",

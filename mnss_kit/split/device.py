@@ -1,6 +1,6 @@
 """Device profiles: what a phone's GPU, NPU, memory and GPU<->NPU handoff can do.
 
-A profile is ``configs/devices/NAME.yaml``::
+A profile is ``mnss_kit/configs/devices/NAME.yaml``::
 
     schema: 1
     name: snapdragon_8_gen_1
@@ -128,7 +128,7 @@ def device_from_dict(data: dict, source: str = "device profile") -> DeviceProfil
 
 
 def load_device(name_or_path: str | Path) -> DeviceProfile:
-    """A profile from a YAML path or a bare name under ``configs/devices/``."""
+    """A profile from a YAML path or a bare name under ``mnss_kit/configs/devices/``."""
     path = resolve_config_path(str(name_or_path), "devices")
     return device_from_dict(read_yaml(path), source=str(path))
 

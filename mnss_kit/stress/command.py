@@ -17,7 +17,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="directory for stress.json, stress.md, plots/ and crops/ (default: %(default)s)")
     parser.add_argument("--work", type=Path, default=Path("bench/results/work"),
                         help="the rendered scenarios are kept here and reused (default: %(default)s)")
-    parser.add_argument("--data", type=Path, help="already rendered scenario sequences (default: render configs/data/stress.yaml)")
+    parser.add_argument("--data", type=Path, help="already rendered scenario sequences (default: render mnss_kit/configs/data/stress.yaml)")
     parser.add_argument("--max-frames", type=_positive_int, metavar="N", help="evaluate at most N frames of each scenario")
     parser.add_argument("--no-crops", action="store_true", help="no image crops")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")

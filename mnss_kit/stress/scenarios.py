@@ -1,4 +1,4 @@
-"""The stress scenarios: each names the failure case it tests and its sequence in ``configs/data/stress.yaml``.
+"""The stress scenarios: each names the failure case it tests and its sequence in ``mnss_kit/configs/data/stress.yaml``.
 
 A scenario's ``events`` are the times (seconds) after which recovery is measured besides the
 camera cuts the data flags: the end of a fast pan, where new content has entered the view.

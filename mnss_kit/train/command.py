@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 
-HELP = "train a model config (a path or a name under configs/models/) into OUT/model.pt"
+HELP = "train a model config (a path or a name under mnss_kit/configs/models/) into OUT/model.pt"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("config", help="experiment config: a YAML path or a name under configs/models/ (e.g. mnss_x2)")
+    parser.add_argument("config", help="experiment config: a YAML path or a name under mnss_kit/configs/models/ (e.g. mnss_x2)")
     parser.add_argument("--out", default=None, help="run directory for last.pt, model.pt and logs/ (default: runs/<config name>)")
     parser.add_argument("--resume", action="store_true", help="continue the run in --out from its last.pt")
     parser.add_argument("--init", default=None, metavar="NAME_OR_CKPT",

@@ -1,13 +1,13 @@
 """Training configuration: the ``train:`` section and the experiment file that holds it.
 
-An experiment file (``configs/models/*.yaml``) has three sections::
+An experiment file (``mnss_kit/configs/models/*.yaml``) has three sections::
 
     schema: 1
     model: {...}        # the family's config class (mnss_kit.model.families.FAMILIES)
     train: {...}        # TrainConfig below
     data:               # optional: render configs that create the data when it is missing
-      train: configs/data/train_x2.yaml
-      val: configs/data/test_x2.yaml
+      train: train_x2    # a name under mnss_kit/configs/data/, or a path
+      val: test_x2
 
 Relative data directories are resolved against the working directory.
 """
@@ -130,7 +130,7 @@ class ExperimentConfig:
 
 
 def load_experiment(name_or_path: str | Path, overrides: list[str] | None = None) -> tuple[ExperimentConfig, Path]:
-    """Read an experiment YAML (a path or a name under ``configs/models/``) with ``--set`` overrides."""
+    """Read an experiment YAML (a path or a name under ``mnss_kit/configs/models/``) with ``--set`` overrides."""
     path = resolve_config_path(str(name_or_path), "models")
     data = apply_overrides(read_yaml(path), overrides)
     if "model" not in data:

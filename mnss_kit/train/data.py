@@ -108,7 +108,7 @@ def ensure_data(cfg: TrainConfig, data: DataSection | None, progress: bool = Tru
 
 
 def render(render_config: str, out_dir: Path, progress: bool) -> None:
-    """Render the data config ``render_config`` (a path or a name under configs/data/) into ``out_dir``."""
+    """Render the data config ``render_config`` (a path or a name under mnss_kit/configs/data/) into ``out_dir``."""
     try:
         from ..render.config import load_render_config
         from ..render.writer import render_dataset

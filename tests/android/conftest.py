@@ -39,7 +39,7 @@ def tiny_bundle(tmp_path_factory, synthetic_dataset) -> Path:
 
     root = tmp_path_factory.mktemp("android_bundle")
     torch.manual_seed(0)
-    model = build_model(load_model_config(str(REPO / "configs" / "models" / "mnss_x2_tiny.yaml"))).eval()
+    model = build_model(load_model_config("mnss_x2_tiny")).eval()
     randomise_convs(model)
     ckpt = checkpoint.save(root / "mnss_x2_tiny.pt", model, {"jitter_pattern": "mnss"})
     out = root / "bundle"

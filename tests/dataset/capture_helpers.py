@@ -2,7 +2,7 @@
 
 ``write_nss_capture``: an Arm NSS capture (docs of Arm's Neural Graphics Model Gym, spec 1.0.1);
 ``dataset_to_nss``: a rendered toolkit sequence rewritten as an NSS capture;
-``write_packed_capture``: a packed 8-bit PNG capture (configs/import/packed8.yaml).
+``write_packed_capture``: a packed 8-bit PNG capture (mnss_kit/configs/import/packed8.yaml).
 """
 
 from __future__ import annotations

@@ -81,7 +81,7 @@ def test_lr_motion_is_hr_motion_in_lr_pixels(tiny_render):
 
 
 def test_points_behind_the_previous_camera_point_off_screen_and_the_jump_is_a_reset():
-    # town_tiny frame 4 (configs/data/tiny.yaml): a whip pan turns the camera ~75 degrees in one frame,
+    # town_tiny frame 4 (mnss_kit/configs/data/tiny.yaml): a whip pan turns the camera ~75 degrees in one frame,
     # so a third of the surfaces seen now were behind the previous camera (previous clip w < near)
     from mnss_kit.ops.warp import offscreen
     from mnss_kit.render.config import load_render_config

@@ -5,7 +5,7 @@ optional G-buffers), a file pattern relative to a sequence folder (``lr/color/{f
 a decode rule that turns the stored numbers into the values the engine meant, and the
 conventions of those values (motion units and sign, depth encoding, colour space), which are
 recorded in ``meta.json`` as they are: ``read_buffer`` converts them once, when the data is read.
-``configs/import/packed8.yaml`` is the mapping of the packed 8-bit captures of public
+``mnss_kit/configs/import/packed8.yaml`` is the mapping of the packed 8-bit captures of public
 mobile-upscaler datasets.
 """
 
