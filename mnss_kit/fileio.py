@@ -308,3 +308,19 @@ def _publish(staging: Path, path: Path, merge: bool) -> None:
             os.replace(staging, path)
     except OSError as e:
         raise _write_error(path, e) from None
+
+
+def portable_path(path: str | os.PathLike) -> str:
+    """How reports and generated docs name a file or directory: relative to the working directory
+    when it is inside it, else its last two components (``data/test_x2``), so nothing they write
+    names the machine they were made on."""
+    path = Path(os.path.abspath(path))
+    try:
+        return path.relative_to(Path.cwd()).as_posix()
+    except ValueError:
+        return Path(*path.parts[-2:]).as_posix() if len(path.parts) > 2 else path.name
+
+
+def portable_command(argv: list[str]) -> str:
+    """``argv`` joined for a report, absolute paths in it written as :func:`portable_path` does."""
+    return " ".join(portable_path(a) if os.path.isabs(a) else a for a in argv)

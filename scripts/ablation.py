@@ -25,7 +25,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from mnss_kit.fileio import atomic_output_path, atomic_write_json, atomic_write_text  # noqa: E402
+from mnss_kit.fileio import atomic_output_path, atomic_write_json, atomic_write_text, portable_path  # noqa: E402
 
 DOC = REPO / "docs" / "ablation.md"
 RESULTS = REPO / "docs" / "ablation.json"
@@ -111,7 +111,7 @@ def collect(run: Run, model: Path, eval_json: Path) -> dict:
     methods = summary["methods"]
     return {
         "name": run.name, "study": run.study, "variant": run.variant,
-        "train_data": str(run.train_data), "test_data": str(run.test_data), "overrides": run.overrides,
+        "train_data": portable_path(run.train_data), "test_data": portable_path(run.test_data), "overrides": run.overrides,
         "steps": training["steps"], "train_seconds": training["wall_time_s"], "final_loss": training["final_loss"],
         "eval_frames": summary.get("frames"),
         "model": {k: methods["model"][k] for k, _, _ in METRICS},

@@ -35,7 +35,7 @@ sys.path.insert(0, str(REPO))
 
 from quantize_study import DOC, DRIFT_JSON, STUDY_JSON, plain, write_doc  # noqa: E402  (same folder)
 
-from mnss_kit.fileio import atomic_write_json  # noqa: E402
+from mnss_kit.fileio import atomic_write_json, portable_command, portable_path  # noqa: E402
 from mnss_kit.model.families import npu_module  # noqa: E402
 from mnss_kit.ops.runtimes import runtime_names  # noqa: E402
 
@@ -67,7 +67,7 @@ def main(argv=None) -> int:
     if args.frames < 2 * WINDOW + 100:
         parser.error(f"--frames must be at least {2 * WINDOW + 100}")
     result = run(args)
-    result["command"] = "python scripts/int8_drift.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    result["command"] = "python scripts/int8_drift.py " + portable_command(argv if argv is not None else sys.argv[1:])
     atomic_write_json(args.json, plain(result))
     r = result["result"]
     print(f"int8 drift {r['int8_drift_db']:+.3f} dB, fp32 drift {r['fp32_drift_db']:+.3f} dB "
@@ -197,7 +197,7 @@ def run(args) -> dict:
         "benchmark": "int8_drift",
         "checkpoint": {"name": args.model, "code_version": record.get("code_version")},
         "sequence": args.sequence,
-        "data": str(args.data),
+        "data": portable_path(args.data),
         "crop_lr": list(box),
         "lr_size": [box[2], box[3]],
         "hr_size": [box[2] * meta.scale, box[3] * meta.scale],
@@ -209,7 +209,7 @@ def run(args) -> dict:
                             f"({args.inversion_steps} fixed-point steps), an estimate where surfaces appear or vanish."),
         },
         "quantization": {"method": args.method, "a16": args.a16, "int16_tensors": art.report["int16"],
-                         "calibration_data": str(args.calib), "samples": len(samples)},
+                         "calibration_data": portable_path(args.calib), "samples": len(samples)},
         "int8_runtime": args.runtime,
         "windows": windows,
         "result": {"int8_drift_db": drift["int8"], "fp32_drift_db": drift["fp32"], "tolerance_db": TOLERANCE_DB,

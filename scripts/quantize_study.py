@@ -26,7 +26,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "bench"))
 
-from mnss_kit.fileio import atomic_output_path, atomic_write_json, atomic_write_text  # noqa: E402
+from mnss_kit.fileio import atomic_output_path, atomic_write_json, atomic_write_text, portable_command, portable_path  # noqa: E402
 from mnss_kit.model.families import npu_module  # noqa: E402
 from mnss_kit.ops.runtimes import DEFAULT_RUNTIME, get_runtime, runtime_names  # noqa: E402
 
@@ -125,11 +125,11 @@ def measure(args, argv: list[str]) -> dict:
         })
     return {
         "study": "quantize",
-        "command": "python scripts/quantize_study.py " + " ".join(argv),
+        "command": "python scripts/quantize_study.py " + portable_command(argv),
         "checkpoint": {"name": args.model, "family": record.get("family"), "config": record.get("config"),
                        "training": record.get("training"), "code_version": record.get("code_version")},
-        "calibration": {"data": str(args.calib), "samples": len(samples), "recording": "recurrent float runs, spread over every sequence"},
-        "evaluation": evaluation_info(result, args.runtime, held_out=True, data_label=str(args.data)),
+        "calibration": {"data": portable_path(args.calib), "samples": len(samples), "recording": "recurrent float runs, spread over every sequence"},
+        "evaluation": evaluation_info(result, args.runtime, held_out=True, data_label=portable_path(args.data)),
         "target": {"delta_psnr_db_at_least": TARGET["psnr"], "delta_if_ssim_at_least": TARGET["if_ssim"]},
         "latency": {"runtime": "xnnpack (LiteRT AUTO), 1 thread, this CPU", "input_nhwc": nhwc_shape(samples[0][0]),
                     "repeats": args.repeats, "statistic": "median of interleaved runs", "fp32_ms": fp32_latency,

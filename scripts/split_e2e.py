@@ -33,7 +33,7 @@ sys.path.insert(0, str(REPO))
 
 import numpy as np  # noqa: E402
 
-from mnss_kit.fileio import atomic_write_json, atomic_write_text  # noqa: E402
+from mnss_kit.fileio import atomic_write_json, atomic_write_text, portable_command, portable_path  # noqa: E402
 from mnss_kit.metrics.psnr import mse_psnr  # noqa: E402
 from mnss_kit.ops.runtimes import DEFAULT_RUNTIME, runtime_names  # noqa: E402
 
@@ -264,9 +264,9 @@ def main(argv: list[str] | None = None) -> int:
     emulator = Emulator(bundle, args.npu_profile, "litert", "mesa")
     seq_dirs = [d for d in find_sequences(args.data) if not args.sequences or d.name in args.sequences]
     report = {
-        "command": "python scripts/split_e2e.py " + " ".join(argv if argv is not None else sys.argv[1:]),
-        "model": args.model, "resolution": args.resolution, "calibration": str(args.calib), "data": str(args.data),
-        "bundle": str(bundle), "npu_profile": args.npu_profile, "npu_backend": "litert", "gpu_backend": "mesa",
+        "command": "python scripts/split_e2e.py " + portable_command(argv if argv is not None else sys.argv[1:]),
+        "model": args.model, "resolution": args.resolution, "calibration": portable_path(args.calib), "data": portable_path(args.data),
+        "bundle": portable_path(bundle), "npu_profile": args.npu_profile, "npu_backend": "litert", "gpu_backend": "mesa",
         **_environment(emulator), "sequences": {},
     }
     for seq_dir in seq_dirs:

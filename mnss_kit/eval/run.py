@@ -21,7 +21,7 @@ import torch
 
 from ..dataset import format as fmt
 from ..errors import UserError
-from ..fileio import atomic_directory
+from ..fileio import atomic_directory, portable_path
 from ..metrics.image import WINDOW_SIZE, ssim_image, to_image
 from ..metrics.psnr import psnr
 from ..metrics.temporal import DEPTH_TOLERANCE, POOL, SHADING_FLOOR, SHADING_WEBER, if_ssim, temporal_masks, temporal_scores
@@ -97,7 +97,7 @@ def evaluate(
             sequences[seq_dir.name] = info
     result = summarize(rows, sequences, list(methods))
     result["settings"] = {
-        "data": str(data_dir),
+        "data": portable_path(data_dir),
         "scale": data_scale,
         "max_frames": max_frames,
         "flip": flip,

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import UserError
+from ..fileio import portable_path
 from ..eval.summary import RECOVERY_TOLERANCE_DB, frames_to_recover
 from .scenarios import DATA_CONFIG, NOT_COVERED, SCENARIOS, scenario
 
@@ -47,7 +48,7 @@ def run_stress(request: StressRequest) -> dict:
                                                  [f.time for f in meta.frames], list(methods))
     missing = [s.name for s in SCENARIOS if s.name not in scenarios]
     return {"format": FORMAT, "version": VERSION,
-            "settings": {"data": str(data), "models": list(request.models), "max_frames": request.max_frames,
+            "settings": {"data": portable_path(data), "models": list(request.models), "max_frames": request.max_frames,
                          "recovery_tolerance_db": RECOVERY_TOLERANCE_DB, "scale": scale},
             "methods": list(methods), "scenarios": scenarios,
             "not_covered": {**NOT_COVERED, **{name: "scenario sequence missing from the data" for name in missing}}}

@@ -13,7 +13,7 @@ import pytest
 from java_harness import REPO, JavaCore, compile_core, missing_tools
 
 BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size: its frames become the golden frames
-SEQUENCE_FRAMES = 6  # recorded frames the bundle carries for playback (the synthetic sequences have 8)
+from recorded_sequence import SEQUENCE_FRAMES
 
 
 @pytest.fixture(scope="session")

@@ -240,7 +240,7 @@ def test_java_core_reads_the_recorded_sequence(java_core, tiny_bundle, manifest,
     resource, every frame's bytes (SHA-256) and values equal to numpy's reading of the same files."""
     import hashlib
 
-    from conftest import SEQUENCE_FRAMES
+    from recorded_sequence import SEQUENCE_FRAMES
     from mnss_kit.export.sequence import read_sequence_array
 
     sequence = manifest["sequence"]

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size, so its frames serve as golden frames
-SEQUENCE_FRAMES = 6  # recorded frames the bundle carries for playback (the synthetic sequences have 8)
+from recorded_sequence import SEQUENCE_FRAMES
 
 
 def tiny_checkpoint(path: Path, seed: int = 0) -> Path:

@@ -8,7 +8,7 @@ import zlib
 
 import numpy as np
 import pytest
-from conftest import SEQUENCE_FRAMES
+from recorded_sequence import SEQUENCE_FRAMES
 from test_bundle_check import assert_one_problem_naming, edit_manifest, rehash
 
 from mnss_kit.cli import main
