@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UserError
+from ..export.golden import FORMAT_DTYPES
 from ..gpu.interpret import ScheduleRunner
 from .bundle import BundleSpec, read_bundle
 from .dump import TensorEntry, entry_for
@@ -115,8 +116,7 @@ class Emulator:
             entries[name] = entry_for(name, array, qparams, stage)
 
         for key in self.runner.inputs:
-            value = frame[key].astype(np.float16) if formats[key] in HALF_FORMATS else frame[key]
-            put(key, value, "input")
+            put(key, frame[key].astype(FORMAT_DTYPES[formats[key]]), "input")  # as the input texture holds it
         graph = self.spec.graph
         for result in steps:
             if result.step["kind"] == "gpu":
@@ -129,8 +129,6 @@ class Emulator:
                     put(name, self._npu_tensors[name], "npu", t.qparams() if t.quantized and t.scale.size == 1 else None)
         return tensors, entries
 
-
-HALF_FORMATS = ("rgba16f", "rg16f", "r16f")  # input textures that round to half float on upload
 
 
 def _gpu_passes(backend: str, spec: BundleSpec):

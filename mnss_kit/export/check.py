@@ -265,13 +265,17 @@ def golden_shapes(manifest: dict) -> dict[str, list[int]]:
     """Shapes of the golden arrays the manifest implies (``export.golden.golden_arrays``): every
     input resource and the output resource as (height, width, channels), every boundary buffer
     with the shape of the NPU tensor it carries."""
-    out = {}
+    from .golden import golden_arrays
+
     boundary = {b["buffer"]["resource"]: b["shape"] for b in manifest["boundary"]}
-    for r in manifest["resources"]:
-        if r["role"] in ("input", "output"):
-            out[r["name"]] = [r["size"][1], r["size"][0], r["channels"]]
-        elif r["role"] == "boundary" and r["name"] in boundary:
-            out[r["name"]] = list(boundary[r["name"]])
+    resources = {r["name"]: r for r in manifest["resources"]}
+    out = {}
+    for name in golden_arrays(manifest["resources"]):
+        r = resources[name]
+        if r["role"] != "boundary":
+            out[name] = [r["size"][1], r["size"][0], r["channels"]]
+        elif name in boundary:
+            out[name] = list(boundary[name])
     return out
 
 

@@ -90,9 +90,14 @@ def first_frames(seq, n: int, inputs: list[str]) -> list[dict]:
     return frames
 
 
+def input_dtypes(resources: list[dict]) -> dict[str, str]:
+    """``{input resource: dtype}`` in manifest order: the inputs as their textures hold them."""
+    return {r["name"]: FORMAT_DTYPES[r["format"]] for r in resources if r["role"] == "input"}
+
+
 def golden_arrays(resources: list[dict]) -> dict[str, str]:
     """``{resource name: dtype}`` of what a golden frame stores: inputs, boundary buffers, the output."""
-    out = {r["name"]: FORMAT_DTYPES[r["format"]] for r in resources if r["role"] == "input"}
+    out = input_dtypes(resources)
     out.update({r["name"]: FORMAT_DTYPES["boundary"] for r in resources if r["role"] == "boundary"})
     out.update({r["name"]: FORMAT_DTYPES[r["format"]] for r in resources if r["role"] == "output"})
     return out

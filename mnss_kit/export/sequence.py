@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from .golden import FORMAT_DTYPES, dataset_frames, frame_entry
+from .golden import dataset_frames, frame_entry, input_dtypes
 
 SEQUENCE_DIR = "sequence"
 COMPRESSION = "zlib"
@@ -35,11 +35,6 @@ def sequence_frames(data: Path, lr_size, scale: int, inputs: list[str], n: int) 
         raise UserError(f"--sequence {data}: no sequence of at least {n} frames at the bundle's LR size "
                         f"{lr_size[0]}x{lr_size[1]} (x{scale}); render or choose one at that size")
     return found
-
-
-def input_dtypes(resources: list[dict]) -> dict[str, str]:
-    """``{input resource: dtype}``: what the sequence stores, in manifest order."""
-    return {r["name"]: FORMAT_DTYPES[r["format"]] for r in resources if r["role"] == "input"}
 
 
 def write_sequence(root: Path, frames: list[dict], resources: list[dict], scale: int, jitter_table: list[dict], source: str) -> dict:

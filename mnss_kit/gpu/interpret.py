@@ -34,14 +34,14 @@ ACTIVATIONS, WEIGHT_UPSAMPLES, EPILOGUES = (_inverse(P.ACTIVATION_CODES), _inver
 
 @dataclass
 class Call:
-    """What one GPU step sees: bound resources (``read``), uniform values, learned weights, frame context."""
+    """What one GPU step sees: bound resources (``read``; an output binding reads its old value), uniform
+    values (a reset arrives as ``u_reset``), learned weights, frame context."""
 
     read: dict[str, np.ndarray | None]
     uniforms: dict
     weights: dict[str, Conv3x3]
     offset: np.ndarray  # this frame's jitter, LR pixels
     previous_offset: np.ndarray
-    reset: bool
     profile: str  # numerics profile of the NPU-input quantization
 
     def u(self, name: str):
@@ -148,7 +148,7 @@ class ScheduleRunner:
         for step in self.schedule["steps"]:
             if step.get("skip_on_reset") and reset:
                 continue
-            written = self._gpu(step, frame, offset, previous, reset) if step["kind"] == "gpu" else self._npu(step)
+            written = self._gpu(step, frame, offset, previous) if step["kind"] == "gpu" else self._npu(step)
             self.values.update(written)
             results.append(StepResult(step, written))
         for action in self.schedule.get("end_of_frame", []):
@@ -157,32 +157,20 @@ class ScheduleRunner:
         self.previous_offset = offset
         return results
 
-    def _gpu(self, step: dict, frame: dict, offset, previous, reset: bool) -> dict[str, np.ndarray]:
-        spec = P.PASSES[step["pass"]]
-        read, weights, outputs = {}, {}, {}
-        for binding in spec.bindings:
+    def _gpu(self, step: dict, frame: dict, offset, previous) -> dict[str, np.ndarray]:
+        """Run one GPU step; what its pass call returns (by binding name) is written to the bound resources."""
+        read, weights = {}, {}
+        for binding in P.PASSES[step["pass"]].bindings:
             target = step["bind"][binding.name]
             if target.startswith("weights:"):
                 weights[binding.name] = self.weights[target[len("weights:"):]]
-            elif binding.kind == "image" or (binding.kind == "buffer" and target in self._written_by(step)):
-                outputs[binding.name] = target
             else:
                 read[binding.name] = self.values.get(target)
         uniforms = {name: (frame[v["frame"]] if "frame" in v else v["value"]) for name, v in step["uniforms"].items()}
-        call = Call(read, uniforms, weights, offset, previous, reset, self.profile)
-        produced = PASS_CALLS[step["pass"]](self.passes, call)
-        return {outputs[name]: value for name, value in produced.items()}
-
-    @staticmethod
-    def _written_by(step: dict) -> set[str]:
-        """Buffers a GPU step writes: the ones its pass returns (``npu_input`` of insert_pack_pass)."""
-        return {step["bind"][name] for name in _WRITTEN_BUFFERS.get(step["pass"], ())}
+        produced = PASS_CALLS[step["pass"]](self.passes, Call(read, uniforms, weights, offset, previous, self.profile))
+        return {step["bind"][name]: value for name, value in produced.items()}
 
     def _npu(self, step: dict) -> dict[str, np.ndarray]:
         feeds = {tensor: self.values[resource] for tensor, resource in step["inputs"].items()}
         results = self.npu(step, feeds)
         return {resource: results[tensor] for tensor, resource in step["outputs"].items()}
-
-
-# buffer bindings a pass writes (SSBOs are read-write in GLSL; the passes' own rule)
-_WRITTEN_BUFFERS = {"insert_pack_pass": ("npu_input",)}

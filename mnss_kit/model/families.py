@@ -46,20 +46,24 @@ def npu_modules(model) -> dict:
     return {name: module for name, module, _ in model.stages() if name in family.npu_stages}
 
 
-def npu_module(model):
-    """The one NPU stage of ``model`` (the int8 graph a bundle runs)."""
+def npu_stage(model) -> tuple[str, object]:
+    """``(name, submodule)`` of the one NPU stage of ``model`` (the int8 graph a bundle runs)."""
     from ..errors import UserError
 
     modules = npu_modules(model)
     if len(modules) != 1:
         raise UserError(f"a {model.config.family} model has NPU stages {list(modules)}; the toolkit quantizes exactly one")
-    return next(iter(modules.values()))
+    return next(iter(modules.items()))
+
+
+def npu_module(model):
+    """The one NPU stage's submodule (:func:`npu_stage`)."""
+    return npu_stage(model)[1]
 
 
 def npu_stage_name(model) -> str:
-    """Name of the one NPU stage of ``model``."""
-    npu_module(model)
-    return next(iter(npu_modules(model)))
+    """The one NPU stage's name (:func:`npu_stage`)."""
+    return npu_stage(model)[0]
 
 
 def randomise_convs(model, prefixes: tuple[str, ...] | None = None, noise: float = 0.05):
