@@ -31,6 +31,7 @@ COMMANDS = {
     "emulate": "mnss_kit.emulate.command",
     "bench": "mnss_kit.bench.command",
     "stress": "mnss_kit.stress.command",
+    "size": "mnss_kit.size.command",
     "report": "mnss_kit.report.command",
 }
 

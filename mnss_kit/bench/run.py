@@ -155,7 +155,7 @@ def baseline_records(data: Path, settings: Settings) -> list[dict]:
 
     scale = fmt.read_meta(fmt.find_sequences(data)[0]).scale
     result = evaluate(baseline_methods(scale), data, scale=scale, max_frames=settings.max_frames, progress=False)
-    return [{"name": name, "family": "baseline", "precision": "baseline", **_quality(result["methods"][name]),
+    return [{"name": name, "family": "baseline", "precision": "baseline", **quality(result["methods"][name]),
              "macs_per_pixel": 0.0, "params": 0, "cpu_ms": None, "device_ms": {}} for name in BASELINES]
 
 
@@ -183,9 +183,9 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
     cost = {"macs_per_pixel": macs.total, "npu_macs_per_pixel": macs.by_placement("npu"), "params": macs.params,
             "device_ms": device_estimates(model, settings.devices, settings.latency_size)}
     common = {"name": label, "family": family.name, "source": str(name), **cost}
-    fp32 = {**common, "precision": "fp32", **_quality(result["methods"]["fp32"]),
+    fp32 = {**common, "precision": "fp32", **quality(result["methods"]["fp32"]),
             "cpu_ms": {rt: t["fp32_ms"] for rt, t in latency.items()}}
-    int8 = {**common, "precision": "int8", **_quality(result["methods"]["int8"]),
+    int8 = {**common, "precision": "int8", **quality(result["methods"]["int8"]),
             "cpu_ms": {rt: t["int8_ms"] for rt, t in latency.items()},
             "cpu_fp32_over_int8": {rt: t["fp32_over_int8"] for rt, t in latency.items()},
             **emulated(name, data, calibration, settings, work / "bundles" / label)}
@@ -207,7 +207,8 @@ def at_size(art, module, data: Path):
     return SimpleNamespace(graph=graph, tflite=to_tflite(graph), report=art.report)
 
 
-def _quality(summary: dict) -> dict:
+def quality(summary: dict) -> dict:
+    """The quality keys of one method's summary in an eval result (bench and size records)."""
     return {k: summary[k] for k in ("psnr", "ssim", "if_ssim", "temporal_error")}
 
 

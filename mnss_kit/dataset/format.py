@@ -127,8 +127,11 @@ def read_meta(seq_dir: str | Path) -> SequenceMeta:
     return from_dict(SequenceMeta, read_json(path), source=str(path))
 
 
-def find_sequences(root: str | Path) -> list[Path]:
-    """A sequence directory itself, or every sequence directly below ``root``, sorted."""
+def find_sequences(root: str | Path | list) -> list[Path]:
+    """A sequence directory itself, or every sequence directly below ``root``, sorted; a list of
+    such roots gives their sequences in the list's order."""
+    if isinstance(root, (list, tuple)):
+        return [seq for r in root for seq in find_sequences(r)]
     root = Path(root)
     if not root.exists():
         raise UserError(f"dataset directory not found: {root}")

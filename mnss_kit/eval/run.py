@@ -97,7 +97,7 @@ def evaluate(
             sequences[seq_dir.name] = info
     result = summarize(rows, sequences, list(methods))
     result["settings"] = {
-        "data": portable_path(data_dir),
+        "data": [portable_path(d) for d in data_dir] if isinstance(data_dir, (list, tuple)) else portable_path(data_dir),
         "scale": data_scale,
         "max_frames": max_frames,
         "flip": flip,

@@ -81,8 +81,13 @@ def save(path: str | Path, model: nn.Module, record: dict | None = None) -> Path
 
 
 def resolve(path_or_name: str | Path) -> Path:
-    """A checkpoint file, or the shipped ``mnss_kit/zoo/<name>.pt`` for a bare name."""
+    """A checkpoint file, the shipped ``mnss_kit/zoo/<name>.pt`` for a bare name, or the checkpoint
+    a ``size.json`` of ``mnss-kit size`` chose."""
     path = Path(path_or_name)
+    if path.is_file() and path.suffix == ".json":
+        from ..size.choice import read_choice
+
+        return read_choice(path)
     if path.is_file():
         return path
     shipped = ZOO_DIR / f"{path_or_name}.pt"

@@ -3,7 +3,8 @@
 Sections: the bench records and charts (device milliseconds labelled as estimates), then one
 table per stress scenario with its per-frame PSNR plot, its best and worst methods and its image
 crops (reference, every method and their error maps, when ``mnss-kit stress`` wrote crops), and
-the cases the stress suite does not cover.  The page has no script and no external resource:
+the cases the stress suite does not cover; then one size ladder per ``mnss-kit size`` run, with
+its chart and the rung it chose.  The page has no script and no external resource:
 every image is a PNG copied next to it.
 """
 
@@ -16,22 +17,26 @@ from pathlib import Path
 from ..errors import UserError
 from ..fileio import atomic_directory, atomic_write_text, check_format, read_json
 
-BENCH_FORMAT, STRESS_FORMAT = ("mnss-kit-bench", 1), ("mnss-kit-stress", 1)
+BENCH_FORMAT, STRESS_FORMAT, SIZE_FORMAT = ("mnss-kit-bench", 1), ("mnss-kit-stress", 1), ("mnss-kit-size", 1)
 STYLE = """body{font-family:sans-serif;margin:2em;max-width:1200px;color:#222}
 table{border-collapse:collapse;margin:0.5em 0 1em}td,th{border:1px solid #bbb;padding:2px 6px;font-size:13px}
 th{background:#eee}td.n{text-align:right;font-family:monospace}img{max-width:100%;margin:4px 0}
 .note{color:#666;font-size:13px}.estimate{font-style:italic;color:#855}"""
 
 
-def build_report(bench: Path | None, stress: Path | None, out: Path, overwrite: bool = False) -> Path:
-    """Write ``out/index.html`` and its images from the bench and/or stress JSON; returns the page."""
+def build_report(bench: Path | None, stress: Path | None, out: Path, overwrite: bool = False,
+                 sizes: list[Path] | None = None) -> Path:
+    """Write ``out/index.html`` and its images from the bench, stress and size JSON; returns the page."""
     docs = {"bench": _load(bench, BENCH_FORMAT, "a bench file"), "stress": _load(stress, STRESS_FORMAT, "a stress file")}
+    size_docs = [(p, _load(p, SIZE_FORMAT, "a size file")) for p in sizes or []]
     with atomic_directory(out, overwrite=overwrite) as staging:
         body = []
         if docs["bench"] is not None:
             body += bench_section(docs["bench"], _copy_images(bench.parent / "charts", staging, "bench"))
         if docs["stress"] is not None:
             body += stress_section(docs["stress"], stress.parent, staging)
+        for i, (path, doc) in enumerate(size_docs):
+            body += size_section(doc, path, staging / "size" / str(i), f"size/{i}")
         page = ("<!doctype html><html lang=en><head><meta charset=utf-8><title>mnss-kit report</title>"
                 f"<style>{STYLE}</style></head><body><h1>mnss-kit report</h1>\n" + "\n".join(body) + "\n</body></html>\n")
         atomic_write_text(staging / "index.html", page)
@@ -122,3 +127,29 @@ def stress_section(doc: dict, root: Path, staging: Path) -> list[str]:
     out.append("<h3>Not covered</h3><ul>" + "".join(f"<li>{_e(k)}: {_e(v)}</li>" for k, v in doc["not_covered"].items())
                + "</ul>")
     return out
+
+
+def size_section(doc: dict, path: Path, staging: Path, rel: str) -> list[str]:
+    """One ``mnss-kit size`` ladder: its rows, the baselines, the choice and its chart."""
+    staging.mkdir(parents=True, exist_ok=True)
+    chart = path.parent / "size.png"
+    images = []
+    if chart.is_file():
+        shutil.copyfile(chart, staging / "size.png")
+        images = [f"{rel}/size.png"]
+    settings, chosen = doc["settings"], (doc.get("choice") or {}).get("config")
+    scene = ", ".join(Path(t).name for t in settings["test_sequences"])
+    header = ["config", "MACs/pixel", "params", "PSNR", "SSIM", "IF-SSIM"]
+    header += [f"<span class=estimate>{_e(d)} ms (estimate)</span>" for d in settings["devices"]] + ["verdict"]
+    rows = [[_e(r["config"]), _num(r["macs_per_pixel"], 0), _e(r["params"]), _num(r["psnr"]), _num(r["ssim"], 4),
+             _num(r["if_ssim"], 4), *[_num(r["device_ms"].get(d)) for d in settings["devices"]],
+             "<b>chosen</b>" if r["config"] == chosen else _e("; ".join(r.get("misses") or []) or "meets targets")]
+            for r in sorted(doc["rows"].values(), key=lambda r: r["macs_per_pixel"])]
+    rows += [[_e(f"{name} (baseline)"), "0", "0", _num(q["psnr"]), _num(q["ssim"], 4), _num(q["if_ssim"], 4),
+              *["-" for _ in settings["devices"]], "reference"] for name, q in doc["baselines"].items()]
+    targets = ", ".join(doc.get("targets") or []) + (f"; budget {doc['budget']}" if doc.get("budget") else "")
+    return [f"<h2>Model size for held-out {_e(scene)}</h2>",
+            f"<p>{'Chosen: <b>' + _e(chosen) + '</b>' if chosen else 'No rung meets the targets'} "
+            f"(targets: {_e(targets)}; {_e(settings['steps'])} training steps per rung on "
+            f"{_e(len(settings['train_sequences']))} sequence(s) of the scene).</p>",
+            table(header, rows), *_images(images, "size ladder")]

@@ -68,6 +68,23 @@ def _stress(root):
     return root / "stress.json"
 
 
+def _size(root):
+    from mnss_kit.size.charts import write_chart
+
+    def rung(config, macs, psnr, misses):
+        return {"config": config, "macs_per_pixel": macs, "params": 100, "psnr": psnr, "ssim": 0.9, "if_ssim": 0.95,
+                "device_ms": {"phone_a": macs / 1000}, "steps": 10, "misses": misses}
+
+    doc = {"format": "mnss-kit-size", "version": 1, "targets": ["within:0.3"], "budget": None,
+           "settings": {"devices": ["phone_a"], "steps": 10, "train_sequences": ["a", "b"], "test_sequences": ["scene/held"]},
+           "rows": {"tiny": rung("tiny", 1700, 30.0, ["PSNR 1.00 dB below big (allowed 0.3)"]), "big": rung("big", 7400, 31.0, [])},
+           "baselines": {"taau": {"psnr": 29.5, "ssim": 0.9, "if_ssim": 0.95}}, "choice": {"config": "big"}}
+    (root / "size").mkdir()
+    atomic_write_json(root / "size" / "size.json", doc)
+    write_chart(doc, root / "size" / "size.png")
+    return root / "size" / "size.json"
+
+
 def _open(page, tmp_path):
     """The probe's record and Chromium's console lines for ``page``, loaded with the probe script."""
     probe = page.with_name("probe.html")
@@ -86,13 +103,14 @@ def _open(page, tmp_path):
 
 @pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium package (scripts/setup.sh installs it)")
 def test_report_loads_in_chromium_with_every_image_and_no_console_error(tmp_path):
-    page = build_report(_bench(tmp_path), _stress(tmp_path), tmp_path / "report")
+    page = build_report(_bench(tmp_path), _stress(tmp_path), tmp_path / "report", sizes=[_size(tmp_path)])
     text = page.read_text()
     assert "(estimate)" in text and "camera cut &lt;history&gt;" in text and "hud_overlay" in text
+    assert "Model size for held-out held" in text and "Chosen: <b>big</b>" in text and "1.00 dB below big" in text
     record, console = _open(page, tmp_path)
     sources = [src for src, _ in record["images"]]
     assert "bench/psnr_vs_macs.png" in sources and "stress/plots/camera_cut.png" in sources
-    assert any(src.startswith("stress/crops/camera_cut_") for src in sources)
+    assert any(src.startswith("stress/crops/camera_cut_") for src in sources) and "size/0/size.png" in sources
     assert all(ok for _, ok in record["images"]), record["images"]
     assert record["errors"] == [] and console == [], (record["errors"], console)
 

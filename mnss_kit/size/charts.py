@@ -1,0 +1,80 @@
+"""The ladder of a size document as a Markdown table and a chart: quality against MACs per pixel,
+the baselines as reference lines, the targets drawn, the chosen rung ringed."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..fileio import atomic_output_path
+
+
+def markdown(doc: dict) -> str:
+    rows = sorted(doc["rows"].values(), key=lambda r: r["macs_per_pixel"])
+    devices = doc["settings"]["devices"]
+    chosen = (doc.get("choice") or {}).get("config")
+    head = ["config", "MACs/px", "params", "PSNR", "SSIM", "IF-SSIM", *[f"{d} ms (est.)" for d in devices], "steps", "verdict"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        verdict = "**chosen**" if r["config"] == chosen else ("meets targets" if not r.get("misses") else "; ".join(r["misses"]))
+        steps = f"{r['steps']}" + (" (time cap)" if r.get("stopped") == "time_budget" else "")
+        ms = [f"{r['device_ms'][d]:.2f}" if r["device_ms"].get(d) is not None else "-" for d in devices]
+        lines.append(f"| {r['config']} | {r['macs_per_pixel']:.0f} | {r['params']} | {r['psnr']:.2f} | {r['ssim']:.4f} | "
+                     f"{r['if_ssim']:.4f} | " + " | ".join(ms) + f" | {steps} | {verdict} |")
+    for name, q in doc["baselines"].items():
+        lines.append(f"| {name} (baseline) | 0 | 0 | {q['psnr']:.2f} | {q['ssim']:.4f} | {q['if_ssim']:.4f} | "
+                     + " | ".join("-" for _ in devices) + " | - | reference |")
+    s = doc["settings"]
+    targets = ", ".join(doc.get("targets") or []) + (f"; budget {doc['budget']}" if doc.get("budget") else "")
+    summary = (f"Chosen: **{chosen}**." if chosen else "No rung meets the targets.") + f" Targets: {targets}."
+    facts = (f"Trained {s['steps']} steps per rung on {len(s['train_sequences'])} sequence(s); evaluated on "
+             f"{len(s['test_sequences'])} held-out sequence(s) never trained on ({', '.join(Path(t).name for t in s['test_sequences'])})"
+             + (f", first {s['max_frames']} frames each" if s.get("max_frames") else "")
+             + f". Device milliseconds are estimates at {s['output_size'][0]}x{s['output_size'][1]} output.")
+    return "\n".join([summary, "", facts, "", *lines]) + "\n"
+
+
+def write_chart(doc: dict, path: Path, title: str = "") -> Path:
+    """PSNR and IF-SSIM against MACs per output pixel for every rung, as one PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = sorted(doc["rows"].values(), key=lambda r: r["macs_per_pixel"])
+    chosen = (doc.get("choice") or {}).get("config")
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    for ax, key, label in ((axes[0], "psnr", "PSNR (dB)"), (axes[1], "if_ssim", "IF-SSIM")):
+        x = [r["macs_per_pixel"] for r in rows]
+        ax.plot(x, [r[key] for r in rows], "o-", color="tab:blue", label="ladder rungs")
+        for r in rows:
+            ax.annotate(r["config"], (r["macs_per_pixel"], r[key]), textcoords="offset points", xytext=(4, 4), fontsize=8)
+            if r["config"] == chosen:
+                ax.scatter([r["macs_per_pixel"]], [r[key]], s=220, facecolors="none", edgecolors="tab:red", linewidths=2, label="chosen")
+        for (name, q), style in zip(doc["baselines"].items(), ("--", ":")):
+            ax.axhline(q[key], color="gray", linestyle=style, label=name)
+        for line, text in _target_lines(doc, rows, key):
+            ax.axhline(line, color="tab:green", linestyle="-.", label=text)
+        ax.set_xscale("log")
+        ax.set_xlabel("MACs per output pixel")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(title or "model size ladder on held-out sequences")
+    fig.tight_layout()
+    with atomic_output_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+    return path
+
+
+def _target_lines(doc: dict, rows: list[dict], key: str) -> list[tuple[float, str]]:
+    """Horizontal lines the targets put on the ``key`` axis."""
+    largest = max(rows, key=lambda r: r["macs_per_pixel"])
+    lines = []
+    for text in doc.get("targets") or []:
+        kind, _, value = text.partition(":")
+        if kind == "within" and key == "psnr":
+            lines.append((largest["psnr"] - float(value), f"target {text}"))
+        elif kind == key:
+            lines.append((float(value), f"target {text}"))
+    return lines

@@ -1,0 +1,225 @@
+"""Train (or reuse) every rung of a model-size ladder on a user's scene and evaluate it on held-out sequences.
+
+Each rung is a model config (``mnss_kit/configs/models/``) trained for the same number of steps on
+the same training sequences into ``OUT/runs/<config>/``.  A rung whose ``model.pt`` was trained
+with these settings is reused, a killed rung is resumed from its ``last.pt``, and ``size.json``
+is rewritten atomically after every rung, so a killed ``mnss-kit size`` continues where it stopped.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import UserError
+from ..fileio import atomic_write_json, check_format, json_safe, portable_path, read_json, sha256_file
+from .choice import FORMAT, VERSION
+from .select import Budget, Target, choose
+
+log = logging.getLogger(__name__)
+BASELINES = ("bicubic", "taau")
+
+
+@dataclass
+class SizeRequest:
+    data: list[Path]  # the user's scene: sequence dirs or dirs of sequences
+    targets: list[Target]
+    out: Path
+    test: list[Path] | None = None  # held-out sequences (default: the last ``held_out`` of ``data``)
+    held_out: int = 1
+    ladder: list[str] | None = None  # model config names (default: every shipped config at the data's scale)
+    overrides: list[str] = field(default_factory=list)  # ``--set`` for every rung (train.crop=16)
+    steps: int = 2000  # training steps per rung, the same for every rung
+    minutes: float | None = None  # wall-time cap per rung (a capped rung says so in its row)
+    budget: Budget | None = None
+    devices: list[str] | None = None  # device profiles estimated (default: every shipped one)
+    output_size: tuple[int, int] = (1280, 720)  # HR size of the device estimates
+    max_frames: int | None = None  # per held-out sequence
+    progress: bool = True
+    sequences: dict = field(default_factory=dict, init=False)
+
+
+def run_size(request: SizeRequest) -> dict:
+    """Train and evaluate the ladder, choose a rung; returns the size document (also in ``OUT/size.json``)."""
+    from ..split.device import device_names
+
+    train_seqs, test_seqs = split_sequences(request.data, request.test, request.held_out)
+    scale = _common_scale(train_seqs + test_seqs)
+    names = ladder_configs(request.ladder, scale)
+    devices = list(request.devices or device_names())
+    settings = {
+        "data": [portable_path(d) for d in request.data],
+        "train_sequences": [portable_path(s) for s in train_seqs],
+        "test_sequences": [portable_path(s) for s in test_seqs],
+        "scale": scale, "overrides": list(request.overrides), "steps": request.steps, "minutes": request.minutes, "max_frames": request.max_frames,
+        "devices": devices, "output_size": list(request.output_size),
+    }
+    doc = _resume(request.out / "size.json", settings)
+    if not doc["baselines"]:
+        log.info("evaluating %s on %d held-out sequence(s)", " and ".join(BASELINES), len(test_seqs))
+        doc["baselines"] = _baselines(test_seqs, scale, request)
+        atomic_write_json(request.out / "size.json", doc)
+    for i, name in enumerate(names, 1):
+        log.info("rung %d/%d: %s", i, len(names), name)
+        checkpoint = train_rung(name, train_seqs, request)
+        digest = sha256_file(checkpoint)
+        if (doc["rows"].get(name) or {}).get("checkpoint_sha256") != digest:
+            doc["rows"][name] = evaluate_rung(name, checkpoint, digest, test_seqs, devices, request)
+            atomic_write_json(request.out / "size.json", doc)
+    return decide(doc, request.targets, request.budget, request.out)
+
+
+def decide(doc: dict, targets: list[Target], budget: Budget | None, out: Path) -> dict:
+    """Record the targets, each rung's misses and the choice in ``doc`` and ``OUT/size.json``."""
+    rows = sorted(doc["rows"].values(), key=lambda r: r["macs_per_pixel"])
+    chosen, misses = choose(rows, targets, budget)
+    for row in rows:
+        row["misses"] = misses[row["config"]]
+    doc["rows"] = {r["config"]: r for r in rows}
+    doc["targets"] = [str(t) for t in targets]
+    doc["budget"] = str(budget) if budget else None
+    doc["choice"] = None if chosen is None else {k: chosen[k] for k in ("config", "checkpoint", "macs_per_pixel", "psnr", "if_ssim")}
+    atomic_write_json(out / "size.json", doc)
+    return doc
+
+
+def split_sequences(data: list[Path], test: list[Path] | None, held_out: int) -> tuple[list[Path], list[Path]]:
+    """``(training sequences, held-out sequences)``; the held-out ones are never trained on."""
+    from ..dataset import format as fmt
+
+    seqs = fmt.find_sequences(list(data))
+    if test:
+        tests = fmt.find_sequences(list(test))
+        shared = {s.resolve() for s in seqs} & {t.resolve() for t in tests}
+        if shared:
+            raise UserError(f"{sorted(shared)[0]} is both in --data and in --test: held-out sequences must not be trained on")
+        return seqs, tests
+    if held_out < 1 or len(seqs) <= held_out:
+        raise UserError(f"--data has {len(seqs)} sequence(s): holding out {held_out} leaves none to train on "
+                        "(add sequences, lower --held-out or give --test)")
+    return seqs[:-held_out], seqs[-held_out:]
+
+
+def ladder_configs(names: list[str] | None, scale: int) -> list[str]:
+    """The rungs' config names, by increasing MACs per pixel; all at ``scale``."""
+    from ..model.listing import config_rows
+
+    rows = {r["name"]: r for r in config_rows()}
+    names = names or [n for n, r in rows.items() if r["scale"] == scale]
+    unknown = [n for n in names if n not in rows]
+    if unknown:
+        raise UserError(f"unknown model config '{unknown[0]}' (shipped: {', '.join(sorted(rows))})")
+    wrong = [n for n in names if rows[n]["scale"] != scale]
+    if wrong:
+        raise UserError(f"model config '{wrong[0]}' is x{rows[wrong[0]]['scale']} but the data is x{scale}")
+    if len(names) < 2:
+        raise UserError(f"a ladder needs at least two model configs at x{scale}, got {len(names)}")
+    return sorted(names, key=lambda n: rows[n]["macs_per_pixel"])
+
+
+def rung_experiment(name: str, train_seqs: list[Path], request: SizeRequest):
+    """The config ``name`` set to train ``request.steps`` steps on exactly ``train_seqs``."""
+    from ..train.config import load_experiment
+
+    experiment, _ = load_experiment(name, request.overrides)
+    experiment.train.train_data = [str(s) for s in train_seqs]
+    experiment.train.val_data = None  # the held-out sequences stay unseen, even as a monitor
+    experiment.train.total_steps = request.steps
+    experiment.train.time_budget_min = request.minutes
+    experiment.data = None  # the user's data: nothing is rendered
+    return experiment
+
+
+def train_rung(name: str, train_seqs: list[Path], request: SizeRequest) -> Path:
+    """``OUT/runs/<name>/model.pt``: trained now, resumed, or reused when trained with these settings."""
+    from ..train.loop import FINAL, LAST, train
+
+    experiment = rung_experiment(name, train_seqs, request)
+    run_dir = request.out / "runs" / name
+    final = run_dir / FINAL
+    if final.is_file() and _trained_as(final, experiment) and _finished(final):
+        log.info("reusing %s", final)
+        return final
+    if final.is_file() and not (run_dir / LAST).is_file() and _finished(final):
+        raise UserError(f"{final} was trained with other settings than this ladder's (remove it or choose another --out)")
+    resume = (run_dir / LAST).is_file()
+    if resume and not _trained_as(run_dir / LAST, experiment):
+        raise UserError(f"{run_dir / LAST} is a run with other settings than this ladder's (remove it or choose another --out)")
+    return train(experiment, run_dir, resume=resume, progress=request.progress)
+
+
+def _finished(checkpoint: Path) -> bool:
+    """Whether the run ended at its steps or its time cap (not by an interrupt, which ``--resume`` continues)."""
+    from ..model.checkpoint import read_record
+
+    return ((read_record(checkpoint)[0].get("training") or {}).get("stopped")) in ("completed", "time_budget")
+
+
+def _trained_as(checkpoint: Path, experiment) -> bool:
+    """Whether ``checkpoint`` was trained on the same sequences for the same steps (a finished run
+    that stopped at its time cap counts as finished)."""
+    from ..model.checkpoint import read_record
+    from ..train.loop import BOOKKEEPING_KEYS
+    from ..config import to_dict
+
+    record, _ = read_record(checkpoint)
+    saved, wanted = record.get("train") or {}, to_dict(experiment.train)
+    same = all(saved.get(k) == v for k, v in wanted.items() if k not in BOOKKEEPING_KEYS)
+    return same and record.get("config") == to_dict(experiment.model)
+
+
+def evaluate_rung(name: str, checkpoint: Path, digest: str, test_seqs: list[Path], devices: list[str], request: SizeRequest) -> dict:
+    """One ladder row: quality on the held-out sequences, cost, and training facts."""
+    from ..bench.run import device_estimates, quality
+    from ..eval.methods import model_method
+    from ..eval.run import evaluate
+    from ..model.checkpoint import load
+    from ..model.families import family_of
+    from ..model.macs import count_macs
+
+    model, record = load(checkpoint)
+    result = evaluate({"model": model_method(model)}, test_seqs, scale=model.scale, max_frames=request.max_frames,
+                      progress=request.progress)
+    macs = count_macs(model)
+    training = record.get("training") or {}
+    return json_safe({
+        "config": name, "family": family_of(model).name, **quality(result["methods"]["model"]),
+        "macs_per_pixel": macs.total, "npu_macs_per_pixel": macs.by_placement("npu"), "params": macs.params,
+        "device_ms": device_estimates(model, tuple(devices), tuple(request.output_size)),
+        "steps": training.get("steps"), "train_s": training.get("wall_time_s"), "stopped": training.get("stopped"),
+        "checkpoint": (checkpoint.relative_to(request.out)).as_posix(), "checkpoint_sha256": digest,
+    })
+
+
+def _baselines(test_seqs: list[Path], scale: int, request: SizeRequest) -> dict:
+    from ..bench.run import quality
+    from ..eval.baselines import baseline_methods
+    from ..eval.run import evaluate
+
+    methods = {k: v for k, v in baseline_methods(scale).items() if k in BASELINES}
+    result = evaluate(methods, test_seqs, scale=scale, max_frames=request.max_frames, progress=request.progress)
+    return json_safe({name: quality(result["methods"][name]) for name in methods})
+
+
+def _common_scale(seqs: list[Path]) -> int:
+    from ..dataset import format as fmt
+
+    scales = {fmt.read_meta(s).scale for s in seqs}
+    if len(scales) != 1:
+        raise UserError(f"the scene's sequences mix scales x{', x'.join(map(str, sorted(scales)))}: size one scale at a time")
+    return scales.pop()
+
+
+def _resume(path: Path, settings: dict) -> dict:
+    """The size document at ``path`` when it was made with ``settings``, else a fresh one."""
+    fresh = {"format": FORMAT, "version": VERSION, "settings": settings, "baselines": {}, "rows": {}, "choice": None,
+             "note": "quality on held-out sequences never trained on; device_ms are estimates from the device profiles"}
+    if not path.is_file():
+        return fresh
+    doc = read_json(path)
+    check_format(doc, path, FORMAT, "version", VERSION, "a size file")
+    if doc.get("settings") != settings:
+        log.info("%s was made with other settings; evaluating afresh", path)
+        return fresh
+    return doc

@@ -1,0 +1,94 @@
+"""``mnss-kit size`` end to end on a tiny synthetic scene: a two-rung ladder trained for a few
+steps, reused on a rerun, its choice taken by ``export``; and the user mistakes it refuses."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from mnss_kit.cli import main
+from mnss_kit.dataset.synthetic import write_synthetic_sequence
+from mnss_kit.fileio import read_json
+from mnss_kit.model.checkpoint import resolve
+
+FAST = ["--steps", "3", "--set", "train.crop=16", "--set", "train.burn_in=2", "--set", "train.window=2",
+        "--set", "train.batch_size=2", "--ladder", "mnss_x2_tiny", "mnss_x2_small", "--max-frames", "4", "--no-progress"]
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    root = tmp_path_factory.mktemp("size_scene")
+    for name, cut in (("a", None), ("b", 5), ("held", None)):
+        write_synthetic_sequence(root / "data" / name, name=name, lr_size=(32, 24), scale=2, frames=8, cut_at=cut)
+    return root
+
+
+@pytest.fixture(scope="module")
+def sized(scene):
+    out = scene / "size"
+    assert main(["size", "--data", str(scene / "data"), "--target", "within:100", "--out", str(out), *FAST]) == 0
+    return out
+
+
+def test_size_trains_every_rung_and_writes_the_choice(sized, capsys):
+    doc = read_json(sized / "size.json")
+    assert doc["format"] == "mnss-kit-size" and doc["version"] == 1
+    assert [r["config"] for r in doc["rows"].values()] == ["mnss_x2_tiny", "mnss_x2_small"]
+    assert [s.split("/")[-1] for s in doc["settings"]["test_sequences"]] == ["held"]  # the last sequence is held out
+    assert [s.split("/")[-1] for s in doc["settings"]["train_sequences"]] == ["a", "b"]
+    for row in doc["rows"].values():
+        assert row["steps"] == 3 and row["misses"] == []
+        assert set(row["device_ms"]) and all(v > 0 for v in row["device_ms"].values())
+        assert (sized / row["checkpoint"]).is_file()
+    assert set(doc["baselines"]) == {"bicubic", "taau"}
+    assert doc["choice"]["config"] == "mnss_x2_tiny"  # a loose target: the smallest rung
+    assert (sized / "size.md").read_text().startswith("Chosen: **mnss_x2_tiny**")
+    assert (sized / "size.png").stat().st_size > 0
+    assert resolve(sized / "size.json") == sized / "runs" / "mnss_x2_tiny" / "model.pt"  # what export takes
+
+
+def test_rerun_reuses_the_trained_rungs_and_applies_new_targets(scene, sized, tmp_path, capsys):
+    out = tmp_path / "size"
+    shutil.copytree(sized, out)
+    stamps = {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/model.pt")}
+    code = main(["size", "--data", str(scene / "data"), "--target", "psnr:99", "--out", str(out), *FAST])
+    assert code == 1  # nothing meets 99 dB
+    assert {p: p.stat().st_mtime_ns for p in stamps} == stamps  # reused, not retrained
+    doc = read_json(out / "size.json")
+    assert doc["choice"] is None and all(r["misses"] for r in doc["rows"].values())
+    assert "no rung meets the targets" in capsys.readouterr().out
+    with pytest.raises(Exception, match="no rung met the size targets"):
+        resolve(out / "size.json")
+
+
+def test_a_rung_trained_with_other_settings_is_not_taken_for_this_ladder(scene, sized, tmp_path, capsys):
+    out = tmp_path / "size"
+    shutil.copytree(sized, out)
+    (out / "runs" / "mnss_x2_tiny" / "last.pt").unlink()
+    args = ["size", "--data", str(scene / "data"), "--target", "within:1", "--out", str(out), *FAST]
+    args[args.index("3")] = "4"  # another step count
+    assert main(args) == 2
+    assert "was trained with other settings" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--target", "within"], "expected within:DB"),
+    (["--target", "within:1", "--budget-ms", "3"], "--budget-ms and --device go together"),
+    (["--target", "within:1", "--budget-ms", "3", "--device", "no_such_phone"], "no_such_phone"),
+    (["--target", "within:1", "--held-out", "3"], "leaves none to train on"),
+    (["--target", "within:1", "--ladder", "mnss_x2_tiny"], "at least two model configs"),
+    (["--target", "within:1", "--ladder", "mnss_x2_tiny", "mnss_x3"], "is x3 but the data is x2"),
+    (["--target", "within:1", "--ladder", "mnss_x2_tiny", "nope"], "unknown model config 'nope'"),
+])
+def test_user_mistakes_are_one_line_errors(scene, tmp_path, capsys, extra, message):
+    code = main(["size", "--data", str(scene / "data"), "--out", str(tmp_path / "o"), "--no-progress", *extra])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and "Traceback" not in err
+    assert not (tmp_path / "o" / "size.json").exists()
+
+
+def test_held_out_sequences_may_not_be_trained_on(scene, tmp_path, capsys):
+    code = main(["size", "--data", str(scene / "data"), "--test", str(scene / "data" / "held"), "--target", "within:1",
+                 "--out", str(tmp_path / "o"), "--no-progress"])
+    assert code == 2 and "both in --data and in --test" in capsys.readouterr().err
