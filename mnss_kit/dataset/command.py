@@ -9,6 +9,8 @@ HELP = "check, describe, cache or import a dataset (data check | info | cache DI
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from .variants import VARIANTS
+
     sub = parser.add_subparsers(dest="data_command", metavar="ACTION", required=True)
     p = sub.add_parser(
         "check",
@@ -36,13 +38,35 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, required=True, help="output dataset directory (must be empty or absent)")
     p.add_argument("--mapping", default=None, help="images: a mapping YAML, or a name under mnss_kit/configs/import/ (e.g. packed8)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+    p = sub.add_parser(
+        "variant",
+        help="rewrite a dataset's LR inputs as engines send them (8-bit colour, 8/16-bit depth, noisy or camera-only motion)",
+        description="Write a copy of a dataset with input variants applied (mnss_kit/dataset/variants.py says what each "
+        "does); the HR buffers are kept.  Un-jittered or Halton input: mnss-kit render CONFIG --set jitter=center.",
+    )
+    p.add_argument("src", type=Path, help="dataset directory or one sequence directory")
+    p.add_argument("--out", type=Path, required=True, help="output dataset directory (must be empty or absent)")
+    p.add_argument("--apply", nargs="+", required=True, metavar="VARIANT", help=f"one or more of: {', '.join(VARIANTS)}")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
 
 
 IMPORT_FORMATS = ("nss", "images")
 
 
 def run(args: argparse.Namespace) -> int:
-    return {"check": run_check, "info": run_info, "cache": run_cache, "import": run_import}[args.data_command](args)
+    return {"check": run_check, "info": run_info, "cache": run_cache, "import": run_import,
+            "variant": run_variant}[args.data_command](args)
+
+
+def run_variant(args: argparse.Namespace) -> int:
+    from ..fileio import check_output
+    from .variants import check_variants, write_variant_dataset
+
+    names = check_variants(args.apply)
+    check_output(args.out, "directory")
+    written = write_variant_dataset(args.src, args.out, names, overwrite=args.overwrite)
+    print(f"wrote {len(written)} sequence(s) with {', '.join(names)} into {args.out}")
+    return 0
 
 
 def run_check(args: argparse.Namespace) -> int:
