@@ -77,18 +77,22 @@ def write_doc(doc: dict) -> None:
              f"Model `{model}` against the toolkit's TAAU and bicubic on the held-out set `test_x2` (4 sequences, first "
              f"{FRAMES} frames each), with the inputs degraded as game captures degrade them (`mnss-kit data variant`, "
              "`mnss-kit render --set jitter=...`). Delta = model - TAAU.", "",
-             "| variant | what | model PSNR | TAAU PSNR | bicubic PSNR | delta PSNR | model SSIM | TAAU SSIM | model IF-SSIM | TAAU IF-SSIM | sequences below TAAU (PSNR) |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+             "| variant | what | model PSNR | TAAU PSNR | bicubic PSNR | delta PSNR | model SSIM | TAAU SSIM | model IF-SSIM | TAAU IF-SSIM | phase offset model / TAAU / bicubic | sequences below TAAU (PSNR) |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for name, (_, _, what) in VARIANTS.items():
         entry = doc["variants"].get(name)
         if entry is None:
-            lines.append(f"| {name} | {what} | not run | | | | | | | | |")
+            lines.append(f"| {name} | {what} | not run | | | | | | | | | |")
             continue
         m, t, b = (entry["methods"][k] for k in METHODS)
         below = [s for s, per in entry["sequences"].items() if per["model"]["psnr"] < per["taau"]["psnr"]]
         lines.append(f"| {name} | {what} | {m['psnr']:.2f} | {t['psnr']:.2f} | {b['psnr']:.2f} | {m['psnr'] - t['psnr']:+.2f} | "
-                     f"{m['ssim']:.4f} | {t['ssim']:.4f} | {m['if_ssim']:.4f} | {t['if_ssim']:.4f} | {', '.join(below) or 'none'} |")
-    lines += ["", "Per sequence (PSNR, model / TAAU / bicubic):", "",
+                     f"{m['ssim']:.4f} | {t['ssim']:.4f} | {m['if_ssim']:.4f} | {t['if_ssim']:.4f} | "
+                     f"{m['phase_offset']:.2f} / {t['phase_offset']:.2f} / {b['phase_offset']:.2f} | {', '.join(below) or 'none'} |")
+    lines += ["", "Phase offset (`mnss_kit/metrics/pattern.py`): the largest gap between the mean signed error of one "
+              "of the 2x2 output sub-pixel phases and the mean over all pixels, in 8-bit levels, averaged over frames: "
+              "a fixed dot pattern shows here, a uniform error or noise does not.", "",
+              "Per sequence (PSNR, model / TAAU / bicubic):", "",
               "| variant | " + " | ".join(_sequence_names(doc)) + " |", "|---|" + "---|" * len(_sequence_names(doc))]
     for name, entry in doc["variants"].items():
         cells = [f"{p['model']['psnr']:.2f} / {p['taau']['psnr']:.2f} / {p['bicubic']['psnr']:.2f}"

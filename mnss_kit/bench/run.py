@@ -209,7 +209,7 @@ def at_size(art, module, data: Path):
 
 def quality(summary: dict) -> dict:
     """The quality keys of one method's summary in an eval result (bench and size records)."""
-    return {k: summary[k] for k in ("psnr", "ssim", "if_ssim", "temporal_error")}
+    return {k: summary[k] for k in ("psnr", "ssim", "if_ssim", "temporal_error", "phase_offset")}
 
 
 def device_estimates(model, devices: tuple[str, ...], hr_size: tuple[int, int]) -> dict[str, float]:

@@ -23,6 +23,7 @@ from ..dataset import format as fmt
 from ..errors import UserError
 from ..fileio import atomic_directory, portable_path
 from ..metrics.image import WINDOW_SIZE, ssim_image, to_image
+from ..metrics.pattern import phase_offset
 from ..metrics.psnr import psnr
 from ..metrics.temporal import DEPTH_TOLERANCE, POOL, SHADING_FLOOR, SHADING_WEBER, if_ssim, temporal_masks, temporal_scores
 from .crops import crop_frame_indices, write_crops
@@ -144,7 +145,7 @@ def _run_sequence(
         outputs = {}
         for name, method in methods.items():
             output = _run_method(name, method, tracks[name], frame, seq_dir)
-            rows.append(_frame_row(seq_dir.name, frame, name, output, tracks[name].prev_output, masks, opts.flip))
+            rows.append(_frame_row(seq_dir.name, frame, name, output, tracks[name].prev_output, masks, opts.flip, meta.scale))
             tracks[name].prev_output = output
             outputs[name] = output
         if frame.index in crop_at:
@@ -181,7 +182,7 @@ def _run_method(name: str, method: Method, track: _MethodTrack, frame: EvalFrame
     return np.clip(to_image(output), 0.0, 1.0)
 
 
-def _frame_row(seq: str, frame: EvalFrame, name: str, output: np.ndarray, prev_output, masks, flip: bool) -> dict:
+def _frame_row(seq: str, frame: EvalFrame, name: str, output: np.ndarray, prev_output, masks, flip: bool, scale: int) -> dict:
     ref = frame.reference
     row = {
         "sequence": seq,
@@ -190,6 +191,7 @@ def _frame_row(seq: str, frame: EvalFrame, name: str, output: np.ndarray, prev_o
         "reset": int(frame.reset),
         "psnr": psnr(output, ref),
         "ssim": ssim_image(output, ref),
+        "phase_offset": phase_offset(output, ref, scale),
         "if_ssim": math.nan,
         "temporal_error": math.nan,
         "disoccluded_pixels": 0,

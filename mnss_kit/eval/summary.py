@@ -15,7 +15,7 @@ import numpy as np
 from ..metrics.psnr import mse_psnr
 
 RECOVERY_TOLERANCE_DB = 0.5
-METRICS = ("psnr", "ssim", "if_ssim", "temporal_error", "flip")
+METRICS = ("psnr", "ssim", "if_ssim", "temporal_error", "phase_offset", "flip")
 
 
 def summarize(rows: list[dict], sequences: dict[str, dict], methods: list[str]) -> dict:
