@@ -66,16 +66,47 @@ def test_player_bilinear_is_the_toolkits(played, tiny_bundle):
     np.testing.assert_array_equal(actual, expected)
 
 
+def view(out, manifest, frame: int, index: int) -> np.ndarray:
+    w, h = manifest["hr_size"]
+    return np.frombuffer((out / f"view_{frame}_{index}.bin").read_bytes(), np.uint8).reshape(h, w, 3)
+
+
 def test_player_renders_every_debug_view_of_the_manifest(played, tiny_bundle):
+    """Weight map and history mask agree pixel for pixel (marked exactly where the weight's grey
+    code is below 128), are white and empty on reset frames (the loop's first frame too), and the
+    motion view is the recorded motion coloured by direction and length (colorsys's HSV)."""
+    import colorsys
+
     _, out = played
     manifest = json.loads((tiny_bundle / "manifest.json").read_text())
-    w, h = manifest["hr_size"]
-    views = manifest["debug_views"]
-    assert [v["resource"] for v in views] == ["lr_weight", "lr_weight", "motion"]
-    for i, view in enumerate(views):
-        image = np.frombuffer((out / f"view_{i}.bin").read_bytes(), np.uint8).reshape(h // 2, 2, w // 2, 2, 3)
-        assert (image == image[:, :1, :, :1]).all(), f"{view['name']}: an LR resource is shown nearest, 2x2 per value"
-        assert len(np.unique(image.reshape(-1, 3), axis=0)) > 1, f"{view['name']} shows one colour"
+    views = [v["name"] for v in manifest["debug_views"]]
+    assert views == ["weight map", "history taken", "motion"]
+    frames = manifest["sequence"]["frames"]
+    marked_somewhere = False
+    for t in range(LOOPS * len(frames)):
+        recorded = frames[t % len(frames)]
+        weight, mask, motion = (view(out, manifest, t, i) for i in range(3))
+        for image in (weight, mask, motion):  # LR resources, shown nearest: 2x2 per value
+            assert (image == np.repeat(np.repeat(image[::2, ::2], 2, 0), 2, 1)).all()
+        marked = (mask == (255, 128, 0)).all(-1)
+        assert (marked | (mask == 0).all(-1)).all()
+        assert (weight[..., 0] == weight[..., 1]).all()
+        np.testing.assert_array_equal(marked, weight[..., 0] < 128)
+        if recorded["reset"] or t % len(frames) == 0:
+            assert (weight == 255).all() and not marked.any(), f"played frame {t} is a reset"
+        marked_somewhere |= marked.any()
+        if t == 1:
+            m = read_sequence_array(tiny_bundle, manifest["sequence"]["arrays"]["motion"])[1].astype(np.float64)
+            low, high = manifest["debug_views"][2]["range"]
+            expected = np.zeros(m.shape[:2] + (3,), np.uint8)
+            for (y, x), (dx, dy) in zip(np.ndindex(m.shape[:2]), m.reshape(-1, 2)):
+                length = np.hypot(dx, dy)
+                hue = (np.degrees(np.arctan2(dy, dx)) + 360) % 360 / 360 if length else 0.0
+                rgb = colorsys.hsv_to_rgb(hue, min(max((length - low) / (high - low), 0), 1), 1)
+                expected[y, x] = np.floor(np.asarray(rgb) * 255 + 0.5)
+            np.testing.assert_array_equal(motion[::2, ::2], expected)
+            assert len(np.unique(expected.reshape(-1, 3), axis=0)) > 1
+    assert marked_somewhere, "no pixel took history in any frame: the mask view was never exercised"
 
 
 def test_player_without_timer_queries_times_around_glfinish(gl_classes, tiny_bundle):

@@ -184,14 +184,7 @@ final class GlResources implements AutoCloseable {
         GpuSection.Resource r = spec(name);
         int w = r.size[0];
         int h = r.size[1];
-        gl.glMemoryBarrier(Gles31.GL_FRAMEBUFFER_BARRIER_BIT | Gles31.GL_TEXTURE_UPDATE_BARRIER_BIT);
-        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, framebuffer);
-        gl.glFramebufferTexture2D(Gles31.GL_READ_FRAMEBUFFER, Gles31.GL_COLOR_ATTACHMENT0, Gles31.GL_TEXTURE_2D, texture(name), 0);
-        ByteBuffer rgba = ByteBuffer.allocateDirect(w * h * 4);
-        gl.glPixelStorei(Gles31.GL_PACK_ALIGNMENT, 1);
-        gl.glReadPixels(0, 0, w, h, Gles31.GL_RGBA, Gles31.GL_UNSIGNED_BYTE, rgba);
-        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, 0);
-        checkError("reading " + name);
+        ByteBuffer rgba = readPixels(name, Gles31.GL_UNSIGNED_BYTE, 4);
         byte[] rgb = new byte[w * h * 3];
         for (int p = 0; p < w * h; p++) {
             rgba.position(p * 4);
@@ -214,14 +207,7 @@ final class GlResources implements AutoCloseable {
         int w = r.size[0];
         int h = r.size[1];
         int channels = r.channels == 0 ? f.components : r.channels;
-        gl.glMemoryBarrier(Gles31.GL_FRAMEBUFFER_BARRIER_BIT | Gles31.GL_TEXTURE_UPDATE_BARRIER_BIT);
-        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, framebuffer);
-        gl.glFramebufferTexture2D(Gles31.GL_READ_FRAMEBUFFER, Gles31.GL_COLOR_ATTACHMENT0, Gles31.GL_TEXTURE_2D, texture(name), 0);
-        FloatBuffer rgba = ByteBuffer.allocateDirect(w * h * 16).order(ByteOrder.nativeOrder()).asFloatBuffer();
-        gl.glPixelStorei(Gles31.GL_PACK_ALIGNMENT, 1);
-        gl.glReadPixels(0, 0, w, h, Gles31.GL_RGBA, Gles31.GL_FLOAT, rgba);
-        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, 0);
-        checkError("reading " + name);
+        FloatBuffer rgba = readPixels(name, Gles31.GL_FLOAT, 16).asFloatBuffer();
         float[] out = new float[w * h * channels];
         for (int p = 0; p < w * h; p++) {
             for (int k = 0; k < channels; k++) {
@@ -229,6 +215,20 @@ final class GlResources implements AutoCloseable {
             }
         }
         return out;
+    }
+
+    /** RGBA pixels of 2D texture {@code name} read as {@code type} ({@code bytesPerPixel} each), after the shader writes are visible. */
+    private ByteBuffer readPixels(String name, int type, int bytesPerPixel) {
+        GpuSection.Resource r = spec(name);
+        gl.glMemoryBarrier(Gles31.GL_FRAMEBUFFER_BARRIER_BIT | Gles31.GL_TEXTURE_UPDATE_BARRIER_BIT);
+        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, framebuffer);
+        gl.glFramebufferTexture2D(Gles31.GL_READ_FRAMEBUFFER, Gles31.GL_COLOR_ATTACHMENT0, Gles31.GL_TEXTURE_2D, texture(name), 0);
+        ByteBuffer pixels = ByteBuffer.allocateDirect(r.size[0] * r.size[1] * bytesPerPixel).order(ByteOrder.nativeOrder());
+        gl.glPixelStorei(Gles31.GL_PACK_ALIGNMENT, 1);
+        gl.glReadPixels(0, 0, r.size[0], r.size[1], Gles31.GL_RGBA, type, pixels);
+        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, 0);
+        checkError("reading " + name);
+        return pixels;
     }
 
     private int texture(String name) {

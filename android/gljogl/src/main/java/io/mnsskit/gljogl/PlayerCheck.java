@@ -26,8 +26,8 @@ import java.util.Map;
  * {@code t mod golden frames}'s NPU output (any valid int8 tensor keeps the loop going).  Every
  * frame also renders the bilinear upscale and every debug view.  Prints the timing table, then
  * {@code player: F frames, T tensors V values compared, W wrong}; exits 1 unless W is 0.  With
- * OUT, writes the first frame's bilinear codes ({@code bilinear.bin}) and the last frame's debug
- * views ({@code view_N.bin}) there.
+ * OUT, writes the first frame's bilinear codes ({@code bilinear.bin}) and debug view V of played
+ * frame T ({@code view_T_V.bin}) there.
  *
  * <pre>  java -Djogl.disable.opengldesktop io.mnsskit.gljogl.PlayerCheck BUNDLE LOOPS [OUT [finish]]   (EGL_PLATFORM=surfaceless)</pre>
  * {@code finish}: time the GPU steps with glFinish and the system clock even where timer queries exist.
@@ -65,8 +65,8 @@ public final class PlayerCheck {
                 }
                 for (int v = 0; v < manifest.debugViews.size(); v++) {
                     byte[] view = player.debugView(manifest.debugViews.get(v));
-                    if (out != null && t == frames - 1) {
-                        Files.write(new File(out, "view_" + v + ".bin").toPath(), view);
+                    if (out != null) {
+                        Files.write(new File(out, "view_" + t + "_" + v + ".bin").toPath(), view);
                     }
                 }
                 if (out != null && t == 0) {
