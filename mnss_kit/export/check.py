@@ -46,7 +46,15 @@ def check_bundle(bundle: str | Path) -> list[str]:
     problems += check_golden(root, manifest, bad_files)
     problems += check_sequence(root, manifest, bad_files)
     problems += check_schedule(manifest)
+    problems += check_debug_views(manifest)
     return problems
+
+
+def check_debug_views(manifest: dict) -> list[str]:
+    """Every debug view names a texture resource (the schema has checked the rest)."""
+    textures = {r["name"] for r in manifest["resources"] if r["kind"] != "buffer"}
+    return [f"manifest.json: debug_views/{i} ('{view['name']}'): '{view['resource']}' is not a texture in resources"
+            for i, view in enumerate(manifest.get("debug_views", [])) if view["resource"] not in textures]
 
 
 def check_files(root: Path, manifest: dict) -> list[str]:

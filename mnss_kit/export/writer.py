@@ -37,7 +37,7 @@ class BundleParts:
     ``[(name, placement)]`` in execution order; ``placement`` the split stage's plain data (or None)."""
 
     model: dict
-    plan: dict  # the family's GPU plan (``Family.gpu_plan``): passes, weight blocks, resources, schedule
+    plan: dict  # the family's GPU plan (``Family.gpu_plan``): passes, weight blocks, resources, schedule, optional debug views
     scale: int
     lr_size: tuple[int, int]
     jitter_pattern: str
@@ -149,6 +149,7 @@ def build_manifest(parts: BundleParts, passes: list[dict], blocks: list[dict], t
         ],
         "resources": parts.plan["resources"],
         "schedule": schedule,
+        **({"debug_views": parts.plan["debug_views"]} if parts.plan.get("debug_views") else {}),
         "placement": parts.placement,
         "golden": {
             "profile": parts.profile,

@@ -5,6 +5,9 @@ carries and :mod:`.interpret` runs::
 
     {"passes": [...], "weights": (bytes, [block entries]), "resources": [...], "schedule": {...}}
 
+and optionally ``"debug_views": [...]``: resources an app may show and how to colour them (the
+manifest schema's ``debug_views``).
+
 Bindings, workgroup sizes and formats come from :data:`mnss_kit.gpu.passes.PASSES`; nothing here
 restates them.  Resource names in a step's ``bind`` refer to ``resources``; ``weights:NAME`` to a
 block of the weight file.  Per-frame uniform values (``{"frame": KEY}``) are: ``offset`` /

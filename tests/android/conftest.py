@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from java_harness import REPO, JavaCore, compile_core, missing_tools
+from java_harness import REPO, JavaCore, compile_core, compile_gl_pipeline, missing_jogl, missing_tools
 
 BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size: its frames become the golden frames
 from recorded_sequence import SEQUENCE_FRAMES
@@ -22,6 +22,15 @@ def java_core(tmp_path_factory) -> JavaCore:
     if reason:
         pytest.skip(reason)
     return compile_core(tmp_path_factory.mktemp("android_core_classes"))
+
+
+@pytest.fixture(scope="session")
+def gl_classes(tmp_path_factory) -> Path:
+    """The core and android/gljogl (the JOGL binding) compiled; skips without JOGL."""
+    reason = missing_jogl()
+    if reason:
+        pytest.skip(reason)
+    return compile_gl_pipeline(tmp_path_factory.mktemp("gl_pipeline_classes"))
 
 
 @pytest.fixture(scope="session")

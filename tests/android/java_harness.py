@@ -117,12 +117,17 @@ def compile_gl_pipeline(out: Path) -> Path:
     return out
 
 
+def run_jogl_main(classes: Path, main: str, *args: str) -> subprocess.CompletedProcess:
+    """Run ``main`` of the compiled core + android/gljogl on Mesa through JOGL."""
+    classpath = os.pathsep.join(map(str, [classes, *LIBRARY_JARS, *JOGL_JARS]))
+    return jogl_run(["java", "-Xshare:auto", "-XX:TieredStopAtLevel=1", "-cp", classpath, main, *args])
+
+
 def run_gl_pipeline(classes: Path, bundle: Path) -> tuple[int, int]:
     """Run the app's frame pipeline over ``bundle``'s golden frames on Mesa through JOGL
     (``GlPipelineCheck``); fails the test unless every GL-produced tensor matches.  Returns
     (tensors, values) compared."""
-    classpath = os.pathsep.join(map(str, [classes, *LIBRARY_JARS, *JOGL_JARS]))
-    run = jogl_run(["java", "-Xshare:auto", "-XX:TieredStopAtLevel=1", "-cp", classpath, "io.mnsskit.gljogl.GlPipelineCheck", str(bundle)])
+    run = run_jogl_main(classes, "io.mnsskit.gljogl.GlPipelineCheck", str(bundle))
     print(run.stdout)
     if run.returncode != 0:
         pytest.fail(f"GL pipeline check on {bundle} failed:\n{run.stdout[-6000:]}\n{run.stderr[-4000:]}", pytrace=False)

@@ -6,7 +6,7 @@ import re
 
 from java_harness import CORE, REPO, java_sources
 
-UNIT_TESTS = ("JsonTest", "Int8QuantTest", "ManifestTest", "FrameSchedulerTest", "BundleVerifierTest", "SelfTestTest")
+UNIT_TESTS = ("JsonTest", "Int8QuantTest", "ManifestTest", "FrameSchedulerTest", "BundleVerifierTest", "SelfTestTest", "PlaybackTest")
 ANDROID = REPO / "android"
 
 
@@ -18,7 +18,7 @@ def test_junit_unit_tests_pass(java_core):
 
 def test_every_test_class_is_run():
     """A new JUnit class must be listed here or in a contract test, or it would never run."""
-    contract = {"QuantVectorsTest", "ContractTool", "MiniBundle"}
+    contract = {"QuantVectorsTest", "DisplayVectorsTest", "ContractTool", "MiniBundle"}
     found = {p.stem for p in java_sources("test")}
     assert found == set(UNIT_TESTS) | contract
 

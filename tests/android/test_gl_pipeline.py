@@ -9,19 +9,9 @@ from __future__ import annotations
 import json
 import re
 
-import pytest
-
-from java_harness import CORE, REPO, compile_gl_pipeline, missing_jogl, run_gl_pipeline
+from java_harness import CORE, REPO, run_gl_pipeline
 
 ANDROID_APP = REPO / "android" / "app" / "src" / "main" / "java" / "io" / "mnsskit" / "sample"
-
-
-@pytest.fixture(scope="module")
-def gl_classes(tmp_path_factory):
-    reason = missing_jogl()
-    if reason:
-        pytest.skip(reason)
-    return compile_gl_pipeline(tmp_path_factory.mktemp("gl_pipeline_classes"))
 
 
 def test_app_frame_pipeline_reproduces_the_golden_frames_on_mesa(gl_classes, tiny_bundle, capsys):

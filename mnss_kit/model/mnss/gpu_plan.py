@@ -22,14 +22,33 @@ NPU_CHANNELS = 3  # the reconstruction net maps an RGB image to an RGB image
 
 
 def bundle_gpu_plan(config: MNSSConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
-    """The family record's ``gpu_plan``: passes, weight blocks ``[(name, Conv3x3)]``, resources and schedule."""
+    """The family record's ``gpu_plan``: passes, weight blocks ``[(name, Conv3x3)]``, resources, schedule, debug views."""
     stage = GpuStage.from_model(config, state_dict)
     return {
         "passes": pass_entries(_used_passes(stage)),
         "weights": weight_blocks(stage),
         "resources": resources(stage, lr_size),
         "schedule": schedule(stage, lr_size, npu, profile),
+        "debug_views": debug_views(stage),
     }
+
+
+MOTION_VIEW_RANGE = 4.0  # LR pixels of motion shown at full saturation
+
+
+def debug_views(stage: GpuStage) -> list[dict]:
+    """The resources an app can show for this configuration, and how to colour them (the schema's ``debug_views``)."""
+    views = []
+    if stage.with_history:
+        views += [
+            {"name": "weight map", "resource": "lr_weight", "map": "scalar", "range": [0.0, 1.0], "on_reset": 1.0,
+             "description": "LR inpainting weights: white takes the current frame, black keeps the warped history"},
+            {"name": "history taken", "resource": "lr_weight", "map": "mask", "below": 0.5, "on_reset": 1.0,
+             "description": "pixels whose rectified colour is mostly the warped history (weight below 0.5); none on a reset frame"},
+        ]
+    views.append({"name": "motion", "resource": "motion", "map": "vector", "range": [0.0, MOTION_VIEW_RANGE],
+                  "description": f"LR motion: hue is the direction, saturation the length, full at {MOTION_VIEW_RANGE:g} LR pixels"})
+    return views
 
 
 def weight_blocks(stage: GpuStage) -> list[tuple[str, Conv3x3]]:

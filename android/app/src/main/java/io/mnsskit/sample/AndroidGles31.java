@@ -5,7 +5,10 @@ import io.mnsskit.core.Gles31;
 import java.nio.Buffer;
 import java.nio.ByteBuffer;
 
-/** {@link Gles31} on the phone: each call is the {@code android.opengl.GLES31} call of the same name. */
+/**
+ * {@link Gles31} on the phone: each call is the {@code android.opengl.GLES31} call of the same name
+ * (the ES 2.0 and 3.0 ones inherited from GLES20 and GLES30).
+ */
 final class AndroidGles31 implements Gles31 {
     @Override public int glGetError() { return GLES31.glGetError(); }
     @Override public void glGenTextures(int n, int[] textures, int offset) { GLES31.glGenTextures(n, textures, offset); }
@@ -54,4 +57,12 @@ final class AndroidGles31 implements Gles31 {
     @Override public void glUniform2f(int location, float x, float y) { GLES31.glUniform2f(location, x, y); }
     @Override public void glDispatchCompute(int x, int y, int z) { GLES31.glDispatchCompute(x, y, z); }
     @Override public void glMemoryBarrier(int barriers) { GLES31.glMemoryBarrier(barriers); }
+    @Override public String glGetString(int name) { return GLES31.glGetString(name); }
+    @Override public void glGetIntegerv(int name, int[] params, int offset) { GLES31.glGetIntegerv(name, params, offset); }
+    @Override public void glFinish() { GLES31.glFinish(); }
+    @Override public void glGenQueries(int n, int[] ids, int offset) { GLES31.glGenQueries(n, ids, offset); }
+    @Override public void glDeleteQueries(int n, int[] ids, int offset) { GLES31.glDeleteQueries(n, ids, offset); }
+    @Override public void glBeginQuery(int target, int id) { GLES31.glBeginQuery(target, id); }
+    @Override public void glEndQuery(int target) { GLES31.glEndQuery(target); }
+    @Override public void glGetQueryObjectuiv(int id, int name, int[] params, int offset) { GLES31.glGetQueryObjectuiv(id, name, params, offset); }
 }

@@ -1,13 +1,11 @@
 package io.mnsskit.sample;
 
-import io.mnsskit.core.BundleException;
 import io.mnsskit.core.FrameScheduler;
 import io.mnsskit.core.GpuFramePipeline;
 import io.mnsskit.core.Manifest;
 import io.mnsskit.core.SelfTest;
 import io.mnsskit.core.Tensor;
 import java.io.File;
-import java.util.Collections;
 import java.util.List;
 import java.util.Map;
 
@@ -32,16 +30,7 @@ final class GlesPipeline implements SelfTest.Pipeline, AutoCloseable {
 
     GlesPipeline(Manifest manifest, File bundle, NpuRunner.Accelerator accelerator) {
         npu = new NpuRunner(manifest, bundle, accelerator);
-        gpu = new GpuFramePipeline(new AndroidGles31(), manifest, bundle, inputs -> runNpu(manifest, inputs));
-    }
-
-    /** NpuRunner runs a single-input, single-output model (ScheduleCheck and NpuRunner check the model). */
-    private Map<String, byte[]> runNpu(Manifest manifest, Map<String, byte[]> inputs) {
-        if (inputs.size() != 1 || manifest.npu.outputs.size() != 1) {
-            throw new BundleException("this app runs NPU models with one input and one output; the manifest lists "
-                    + inputs.size() + " and " + manifest.npu.outputs.size());
-        }
-        return Collections.singletonMap(manifest.npu.outputs.get(0), npu.run(inputs.values().iterator().next()));
+        gpu = new GpuFramePipeline(new AndroidGles31(), manifest, bundle, npu);
     }
 
     @Override

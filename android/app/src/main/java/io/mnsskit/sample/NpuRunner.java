@@ -1,6 +1,7 @@
 package io.mnsskit.sample;
 
 import io.mnsskit.core.BundleException;
+import io.mnsskit.core.GpuFramePipeline;
 import io.mnsskit.core.Manifest;
 import io.mnsskit.core.NpuSection;
 import java.io.File;
@@ -11,6 +12,8 @@ import java.nio.ByteOrder;
 import java.nio.MappedByteBuffer;
 import java.nio.channels.FileChannel;
 import java.util.Arrays;
+import java.util.Collections;
+import java.util.Map;
 import org.tensorflow.lite.DataType;
 import org.tensorflow.lite.Delegate;
 import org.tensorflow.lite.Interpreter;
@@ -27,17 +30,43 @@ import org.tensorflow.lite.nnapi.NnApiDelegate;
  * {@link Accelerator#GPU} uses the LiteRT GPU delegate; {@link Accelerator#CPU} runs XNNPACK.
  * Drivers may round differently from the desktop kernels the golden frames were computed with:
  * the self-test allows the bundle's tolerance (1 LSB).  Input and output are direct buffers of the
- * tensors' int8 bytes, which are also the packed words of the GPU's SSBOs.
+ * tensors' int8 bytes, which are also the packed words of the GPU's SSBOs.  It runs models with
+ * one input and one output (checked against the manifest's NPU step).
  */
-final class NpuRunner implements AutoCloseable {
-    enum Accelerator { CPU, NNAPI, GPU }
+final class NpuRunner implements GpuFramePipeline.Npu, AutoCloseable {
+    /** The LiteRT path: NNAPI delegate, GPU delegate, or the CPU with XNNPACK. */
+    enum Accelerator {
+        NNAPI("NNAPI delegate"), GPU("LiteRT GPU delegate"), CPU("CPU (XNNPACK)");
+
+        final String label;
+
+        Accelerator(String label) {
+            this.label = label;
+        }
+
+        /** {@code nnapi}, {@code gpu} or {@code cpu}, in any case. */
+        static Accelerator parse(String name) {
+            for (Accelerator a : values()) {
+                if (a.name().equalsIgnoreCase(name)) {
+                    return a;
+                }
+            }
+            throw new IllegalArgumentException("npu must be nnapi, gpu or cpu, not '" + name + "'");
+        }
+    }
 
     private final Interpreter interpreter;
     private final Delegate delegate;
     private final ByteBuffer input;
     private final ByteBuffer output;
+    private final String outputTensor;
 
     NpuRunner(Manifest manifest, File bundle, Accelerator accelerator) {
+        if (manifest.npu.inputs.size() != 1 || manifest.npu.outputs.size() != 1) {
+            throw new BundleException("this app runs NPU models with one input and one output; the manifest lists "
+                    + manifest.npu.inputs.size() + " and " + manifest.npu.outputs.size());
+        }
+        outputTensor = manifest.npu.outputs.get(0);
         Interpreter.Options options = new Interpreter.Options();
         delegate = delegate(accelerator);
         if (delegate != null) {
@@ -97,6 +126,12 @@ final class NpuRunner implements AutoCloseable {
         output.rewind();
         output.get(out);
         return out;
+    }
+
+    /** The frame pipeline's NPU step: the one input tensor's bytes in, the one output tensor's out. */
+    @Override
+    public Map<String, byte[]> run(Map<String, byte[]> inputs) {
+        return Collections.singletonMap(outputTensor, run(inputs.values().iterator().next()));
     }
 
     private static MappedByteBuffer map(File file) {

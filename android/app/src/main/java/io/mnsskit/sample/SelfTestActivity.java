@@ -27,7 +27,8 @@ import java.util.Locale;
  *   adb pull /sdcard/Android/data/io.mnsskit.sample/files/dumps/
  * </pre>
  * Without extras the first bundle found is tested with NNAPI.  All GL and LiteRT work runs on
- * one background thread that owns the EGL context.
+ * one background thread that owns the EGL context.  The playback screen ({@link PlaybackActivity})
+ * opens it with the bundle and NPU path it is playing.
  */
 public final class SelfTestActivity extends Activity {
     private static final String TAG = "mnss-kit";
@@ -58,7 +59,7 @@ public final class SelfTestActivity extends Activity {
 
     private void run(String bundleName, String npu) {
         try {
-            File bundle = findBundle(bundleName);
+            File bundle = BundleStorage.find(this, bundleName);
             say("bundle " + bundle);
             Manifest manifest = Manifest.load(bundle);
             say("model " + manifest.model.id + " x" + manifest.scale + ", " + manifest.hrSize[0] + "x" + manifest.hrSize[1]
@@ -69,8 +70,8 @@ public final class SelfTestActivity extends Activity {
                 return;
             }
             say("files and hashes verified (" + manifest.files.size() + " files)");
-            NpuRunner.Accelerator accelerator = accelerator(npu);
-            File dump = new File(storage("dumps"), bundle.getName() + "-" + npu + "-"
+            NpuRunner.Accelerator accelerator = NpuRunner.Accelerator.parse(npu);
+            File dump = new File(BundleStorage.folder(this, BundleStorage.DUMPS), bundle.getName() + "-" + npu + "-"
                     + new SimpleDateFormat("yyyyMMdd-HHmmss", Locale.ROOT).format(new Date()));
             try (EglComputeContext gl = new EglComputeContext();
                  GlesPipeline pipeline = new GlesPipeline(manifest, bundle, accelerator)) {
@@ -83,40 +84,6 @@ public final class SelfTestActivity extends Activity {
             Log.e(TAG, "self-test failed", e);
             say("ERROR: " + e.getMessage());
         }
-    }
-
-    private static NpuRunner.Accelerator accelerator(String name) {
-        for (NpuRunner.Accelerator a : NpuRunner.Accelerator.values()) {
-            if (a.name().equalsIgnoreCase(name)) {
-                return a;
-            }
-        }
-        throw new IllegalArgumentException("npu must be cpu, nnapi or gpu, not '" + name + "'");
-    }
-
-    private File findBundle(String name) {
-        File root = storage("bundles");
-        if (name != null) {
-            File dir = name.startsWith("/") ? new File(name) : new File(root, name);
-            if (!new File(dir, Manifest.FILE_NAME).isFile()) {
-                throw new IllegalArgumentException(dir + " holds no manifest.json; push a bundle there first");
-            }
-            return dir;
-        }
-        File[] dirs = root.listFiles(f -> new File(f, Manifest.FILE_NAME).isFile());
-        if (dirs == null || dirs.length == 0) {
-            throw new IllegalArgumentException("no bundle under " + root + "; adb push one (see android/README.md)");
-        }
-        java.util.Arrays.sort(dirs);
-        return dirs[0];
-    }
-
-    private File storage(String folder) {
-        File dir = new File(getExternalFilesDir(null), folder);
-        if (!dir.isDirectory() && !dir.mkdirs()) {
-            throw new IllegalStateException("cannot create " + dir);
-        }
-        return dir;
     }
 
     private void say(String line) {

@@ -184,20 +184,51 @@ final class GlResources implements AutoCloseable {
         GpuSection.Resource r = spec(name);
         int w = r.size[0];
         int h = r.size[1];
-        gl.glMemoryBarrier(Gles31.GL_FRAMEBUFFER_BARRIER_BIT | Gles31.GL_TEXTURE_UPDATE_BARRIER_BIT);
-        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, framebuffer);
-        gl.glFramebufferTexture2D(Gles31.GL_READ_FRAMEBUFFER, Gles31.GL_COLOR_ATTACHMENT0, Gles31.GL_TEXTURE_2D, texture(name), 0);
-        ByteBuffer rgba = ByteBuffer.allocateDirect(w * h * 4);
-        gl.glPixelStorei(Gles31.GL_PACK_ALIGNMENT, 1);
-        gl.glReadPixels(0, 0, w, h, Gles31.GL_RGBA, Gles31.GL_UNSIGNED_BYTE, rgba);
-        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, 0);
-        checkError("reading " + name);
+        ByteBuffer rgba = readPixels(name, Gles31.GL_UNSIGNED_BYTE, 4);
         byte[] rgb = new byte[w * h * 3];
         for (int p = 0; p < w * h; p++) {
             rgba.position(p * 4);
             rgba.get(rgb, p * 3, 3);
         }
         return rgb;
+    }
+
+    /**
+     * The values of 2D float texture {@code name}, {@code (h, w, channels)} float32 with the
+     * manifest's channel count, row 0 first (RGBA / FLOAT read-back, which ES allows for float
+     * colour buffers: EXT_color_buffer_float).
+     */
+    float[] readFloats(String name) {
+        GpuSection.Resource r = spec(name);
+        Format f = format(r.format);
+        if (r.kind != GpuSection.ResourceKind.TEXTURE2D || f.internal == Gles31.GL_RGBA8) {
+            throw new BundleException("resource '" + name + "' is not a 2D float texture");
+        }
+        int w = r.size[0];
+        int h = r.size[1];
+        int channels = r.channels == 0 ? f.components : r.channels;
+        FloatBuffer rgba = readPixels(name, Gles31.GL_FLOAT, 16).asFloatBuffer();
+        float[] out = new float[w * h * channels];
+        for (int p = 0; p < w * h; p++) {
+            for (int k = 0; k < channels; k++) {
+                out[p * channels + k] = rgba.get(p * 4 + k);
+            }
+        }
+        return out;
+    }
+
+    /** RGBA pixels of 2D texture {@code name} read as {@code type} ({@code bytesPerPixel} each), after the shader writes are visible. */
+    private ByteBuffer readPixels(String name, int type, int bytesPerPixel) {
+        GpuSection.Resource r = spec(name);
+        gl.glMemoryBarrier(Gles31.GL_FRAMEBUFFER_BARRIER_BIT | Gles31.GL_TEXTURE_UPDATE_BARRIER_BIT);
+        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, framebuffer);
+        gl.glFramebufferTexture2D(Gles31.GL_READ_FRAMEBUFFER, Gles31.GL_COLOR_ATTACHMENT0, Gles31.GL_TEXTURE_2D, texture(name), 0);
+        ByteBuffer pixels = ByteBuffer.allocateDirect(r.size[0] * r.size[1] * bytesPerPixel).order(ByteOrder.nativeOrder());
+        gl.glPixelStorei(Gles31.GL_PACK_ALIGNMENT, 1);
+        gl.glReadPixels(0, 0, r.size[0], r.size[1], Gles31.GL_RGBA, type, pixels);
+        gl.glBindFramebuffer(Gles31.GL_READ_FRAMEBUFFER, 0);
+        checkError("reading " + name);
+        return pixels;
     }
 
     private int texture(String name) {

@@ -55,6 +55,14 @@ public interface Gles31 {
     int GL_BUFFER_UPDATE_BARRIER_BIT = 0x00000200;
     int GL_TEXTURE_UPDATE_BARRIER_BIT = 0x00000100;
     int GL_FRAMEBUFFER_BARRIER_BIT = 0x00000400;
+    int GL_EXTENSIONS = 0x1F03;
+    int GL_RENDERER = 0x1F01;
+    int GL_VERSION = 0x1F02;
+    // GL_EXT_disjoint_timer_query
+    int GL_TIME_ELAPSED_EXT = 0x88BF;
+    int GL_GPU_DISJOINT_EXT = 0x8FBB;
+    int GL_QUERY_RESULT = 0x8866;
+    String TIMER_QUERY_EXTENSION = "GL_EXT_disjoint_timer_query";
 
     int glGetError();
 
@@ -115,4 +123,21 @@ public interface Gles31 {
     // compute
     void glDispatchCompute(int x, int y, int z);
     void glMemoryBarrier(int barriers);
+
+    // timing: GPU time with GL_EXT_disjoint_timer_query's GL_TIME_ELAPSED_EXT target of the ES 3.0
+    // query calls (32-bit results: nanoseconds, enough for one pass); wall time around glFinish otherwise
+    String glGetString(int name);
+    void glGetIntegerv(int name, int[] params, int offset);
+    void glFinish();
+    void glGenQueries(int n, int[] ids, int offset);
+    void glDeleteQueries(int n, int[] ids, int offset);
+    void glBeginQuery(int target, int id);
+    void glEndQuery(int target);
+    void glGetQueryObjectuiv(int id, int name, int[] params, int offset);
+
+    /** Whether the driver has GPU timer queries (GL_EXT_disjoint_timer_query). */
+    default boolean hasTimerQuery() {
+        String extensions = glGetString(GL_EXTENSIONS);
+        return extensions != null && java.util.Arrays.asList(extensions.split(" ")).contains(TIMER_QUERY_EXTENSION);
+    }
 }

@@ -1,6 +1,7 @@
 package io.mnsskit.core;
 
 import java.io.File;
+import java.util.ArrayList;
 import java.util.LinkedHashMap;
 import java.util.List;
 import java.util.Map;
@@ -25,6 +26,7 @@ public final class GpuFramePipeline implements SelfTest.Pipeline, AutoCloseable 
     private final GlResources resources;
     private final ComputePasses passes;
     private final Npu npu;
+    private FrameTimer timer;
 
     /** Allocates every resource and compiles every pass; needs a current GL ES 3.1 context. */
     public GpuFramePipeline(Gles31 gl, Manifest manifest, File bundle, Npu npu) {
@@ -34,6 +36,45 @@ public final class GpuFramePipeline implements SelfTest.Pipeline, AutoCloseable 
         passes = new ComputePasses(gl, manifest, bundle);
     }
 
+    /** Times every GPU step and the NPU call of the frames that follow with {@code timer} (null: untimed). */
+    public void timeWith(FrameTimer timer) {
+        this.timer = timer;
+    }
+
+    /**
+     * One whole frame: {@code inputs} (input resource name to tensor) uploaded, the GPU steps, the
+     * NPU (timed as {@link #npuStage}), the steps after it; returns the codes
+     * of the output resource.
+     */
+    public byte[] frame(FrameScheduler.FramePlan plan, Map<String, Tensor> inputs) {
+        Schedule.Step npuStep = manifest.schedule.npuStep();
+        Map<String, byte[]> buffers = beforeNpu(plan, inputs, new ArrayList<>(npuStep.inputs.values()));
+        Map<String, byte[]> byTensor = new LinkedHashMap<>();
+        npuStep.inputs.forEach((tensor, resource) -> byTensor.put(tensor, buffers.get(resource)));
+        Map<String, byte[]> result = timer == null ? npu(byTensor) : timer.cpu(npuStage(npuStep), () -> npu(byTensor));
+        return afterNpu(plan, SelfTest.byResource(npuStep.outputs, result), manifest.golden.output);
+    }
+
+    /** The timing stage of the NPU step. */
+    public static String npuStage(Schedule.Step npuStep) {
+        return "NPU " + npuStep.label;
+    }
+
+    /** The current values of 2D float texture {@code name} (logical name, as the plan maps it). */
+    public float[] readFloats(FrameScheduler.FramePlan plan, String name) {
+        return resources.readFloats(plan.physical(name));
+    }
+
+    private void dispatch(FrameScheduler.PlannedStep step) {
+        if (timer != null) {
+            timer.gpuBegin(step.step.label);
+        }
+        passes.dispatch(step, resources);
+        if (timer != null) {
+            timer.gpuEnd();
+        }
+    }
+
     @Override
     public Map<String, byte[]> beforeNpu(FrameScheduler.FramePlan plan, Map<String, Tensor> inputs, List<String> npuInputs) {
         inputs.forEach((name, tensor) -> resources.uploadTexture(plan.physical(name), tensor));
@@ -41,7 +82,7 @@ public final class GpuFramePipeline implements SelfTest.Pipeline, AutoCloseable 
             if (step.step.kind == Schedule.Kind.NPU) {
                 break;
             }
-            passes.dispatch(step, resources);
+            dispatch(step);
         }
         Map<String, byte[]> out = new LinkedHashMap<>();
         for (String buffer : npuInputs) {
@@ -61,7 +102,7 @@ public final class GpuFramePipeline implements SelfTest.Pipeline, AutoCloseable 
         boolean afterNpu = false;
         for (FrameScheduler.PlannedStep step : plan.steps) {
             if (afterNpu) {
-                passes.dispatch(step, resources);
+                dispatch(step);
             }
             afterNpu |= step.step.kind == Schedule.Kind.NPU;
         }

@@ -47,6 +47,8 @@ public final class Manifest {
     public final Golden golden;
     /** The recorded input sequence for playback, or null if the bundle carries none. */
     public final Sequence sequence;
+    /** The resources the bundle offers as debug views (empty when it offers none). */
+    public final List<DebugView> debugViews;
     /** Every file of the bundle but the manifest: relative POSIX path to size and SHA-256. */
     public final Map<String, FileEntry> files;
 
@@ -190,6 +192,7 @@ public final class Manifest {
         golden = new Golden(root.get("golden"), resources, boundary);
         Json sequenceJson = root.opt("sequence");
         sequence = sequenceJson == null ? null : new Sequence(sequenceJson, resources);
+        debugViews = DebugView.readAll(root.opt("debug_views"), resources);
         Map<String, FileEntry> table = new LinkedHashMap<>();
         Json filesJson = root.get("files");
         for (String name : filesJson.keys()) {

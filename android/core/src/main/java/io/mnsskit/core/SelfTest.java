@@ -127,7 +127,7 @@ public final class SelfTest {
     }
 
     /** The NPU's results, keyed by the buffer each output tensor goes to. */
-    private static Map<String, byte[]> byResource(Map<String, String> tensorToResource, Map<String, byte[]> byTensor) {
+    static Map<String, byte[]> byResource(Map<String, String> tensorToResource, Map<String, byte[]> byTensor) {
         Map<String, byte[]> out = new LinkedHashMap<>();
         tensorToResource.forEach((tensor, resource) -> {
             if (byTensor.containsKey(tensor)) {

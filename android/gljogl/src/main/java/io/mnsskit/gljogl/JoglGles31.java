@@ -73,6 +73,14 @@ public final class JoglGles31 implements Gles31 {
     @Override public void glUniform2f(int location, float x, float y) { gl.glUniform2f(location, x, y); }
     @Override public void glDispatchCompute(int x, int y, int z) { gl.glDispatchCompute(x, y, z); }
     @Override public void glMemoryBarrier(int barriers) { gl.glMemoryBarrier(barriers); }
+    @Override public String glGetString(int name) { return gl.glGetString(name); }
+    @Override public void glGetIntegerv(int name, int[] params, int offset) { gl.glGetIntegerv(name, params, offset); }
+    @Override public void glFinish() { gl.glFinish(); }
+    @Override public void glGenQueries(int n, int[] ids, int offset) { gl.glGenQueries(n, ids, offset); }
+    @Override public void glDeleteQueries(int n, int[] ids, int offset) { gl.glDeleteQueries(n, ids, offset); }
+    @Override public void glBeginQuery(int target, int id) { gl.glBeginQuery(target, id); }
+    @Override public void glEndQuery(int target) { gl.glEndQuery(target); }
+    @Override public void glGetQueryObjectuiv(int id, int name, int[] params, int offset) { gl.glGetQueryObjectuiv(id, name, params, offset); }
 
     @Override
     public String glGetShaderInfoLog(int shader) {
