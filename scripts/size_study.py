@@ -32,7 +32,7 @@ SCENES = {  # scene -> (training sequences of train_x2, held-out sequence of tes
 }
 LADDER = ["mnss_x2_tiny", "mnss_x2_small", "mnss_x2"]
 TARGET = "within:0.3"
-STEPS = 3000
+STEPS = 1500
 
 
 def size_command(scene: str, data: Path) -> list[str]:
