@@ -143,7 +143,7 @@ def evaluate(model: Path, heldout: Path, steps: Steps) -> None:
     jobs = {"finetuned.json": (str(model), ["model", "bicubic", "taau"]), "shipped.json": (MODEL, ["model"])}
     for name, (checkpoint, methods) in jobs.items():
         out = Path("eval") / name
-        if out.is_file():
+        if out.is_file() and out.stat().st_mtime > model.stat().st_mtime:  # else it scored an earlier model.pt
             step(6, "eval", f"{out} exists, skipped")
             continue
         step(6, "eval", f"{checkpoint} ({', '.join(methods)}) on {heldout}")
