@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import sys
 import tempfile
 from pathlib import Path
 
 import torch
+
+from doc_blocks import replace_block
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "bundle.md"
@@ -143,13 +144,6 @@ def resources_block() -> str:
             + f"\n\nTotal {total / 2**20:.1f} MiB (mnss_x2 config, 1280x720 output; the engine's own colour, depth and motion included).")
 
 
-def replace_block(text: str, name: str, body: str) -> str:
-    pattern = re.compile(rf"(<!-- BEGIN GENERATED: {name} -->\n).*?(<!-- END GENERATED: {name} -->)", re.S)
-    if not pattern.search(text):
-        raise SystemExit(f"{DOC}: no generated block '{name}'")
-    return pattern.sub(lambda mt: mt.group(1) + body.rstrip("\n") + "\n" + mt.group(2), text)
-
-
 def main() -> int:
     from mnss_kit.fileio import atomic_write_text
 
@@ -166,7 +160,7 @@ def main() -> int:
         "manifest": manifest_block(manifest),
     }
     for name, body in blocks.items():
-        text = replace_block(text, name, body)
+        text = replace_block(text, name, body, DOC)
     atomic_write_text(DOC, text)
     print(f"updated {DOC.relative_to(ROOT)} ({', '.join(blocks)})", file=sys.stderr)
     return 0

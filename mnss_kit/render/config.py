@@ -6,7 +6,7 @@
       scale: 2
     sequences:
       - name: arena_a      # output sub-directory
-        scene: arena       # built-in (arena, town, flight) or a .gltf/.glb/.obj file
+        scene: arena       # built-in (arena, town, flight, factory) or a .gltf/.glb/.obj file
         seed: 1
         frames: 90
         camera: auto       # 'auto' (generated from the seed) or a camera-path YAML
@@ -28,7 +28,7 @@ from ..config import CONFIG_DIR, apply_overrides, from_dict, read_yaml, resolve_
 from ..errors import UserError
 from ..ops import jitter as jitter_ops
 
-BUILTIN_SCENES = ("arena", "town", "flight")
+BUILTIN_SCENES = ("arena", "town", "flight", "factory")
 SCENE_SUFFIXES = (".gltf", ".glb", ".obj")
 
 

@@ -140,6 +140,15 @@ def chainlink(size=128, links=8) -> np.ndarray:
     return to_rgba8(rgb, wire.astype(np.float32))
 
 
+def grating(size=128, bars=8, width=0.12) -> np.ndarray:
+    """Square floor grating: a grid of thin metal bars (alpha 1) with square holes (alpha 0)."""
+    x, y = _grid(size)
+    fx, fy = (x * bars) % 1.0, (y * bars) % 1.0
+    bar = (np.minimum(fx, 1 - fx) < width / 2) | (np.minimum(fy, 1 - fy) < width / 2)
+    rgb = np.broadcast_to(np.float32(0.5), (size, size, 3))
+    return to_rgba8(rgb, bar.astype(np.float32))
+
+
 def leaves(rng, size=256, colour=(0.08, 0.22, 0.04), count=140) -> np.ndarray:
     """Foliage card: many small elliptic leaves on a transparent background."""
     x, y = _grid(size)

@@ -1,7 +1,6 @@
 """Small captures in the formats ``mnss-kit data import`` reads, written from their specs, with the values written.
 
 ``write_nss_capture``: an Arm NSS capture (docs of Arm's Neural Graphics Model Gym, spec 1.0.1);
-``dataset_to_nss``: a rendered toolkit sequence rewritten as an NSS capture;
 ``write_packed_capture``: a packed 8-bit PNG capture (mnss_kit/configs/import/packed8.yaml).
 """
 
@@ -137,41 +136,3 @@ def write_packed_capture(root: Path, lr_size=(16, 12), scale=2, frames=4, cut_at
     np.savetxt(seq / "jitter.txt", jitter)
     (seq / "cuts.txt").write_text(f"{cut_at}\n")
     return {k: np.stack(v) for k, v in out.items()} | {"jitter": jitter, "seq": seq}
-
-
-def dataset_to_nss(seq_dir: Path, root: Path, sequence: str = "0000") -> None:
-    """Write a toolkit sequence (hardware forward depth, pixel motion to the previous frame, linear HDR)
-    as an NSS capture of ratio x{scale}: the buffers in the NSS types (half colour and motion in UV, float
-    depth), the metadata from the spec."""
-    from mnss_kit.dataset.format import read_meta, read_raw_buffer
-
-    meta = read_meta(seq_dir)
-    assert meta.depth_encoding == "hardware" and meta.motion.units == "pixels" and meta.color_space == "linear_hdr"
-    ratio = f"x{meta.scale}"
-    (lw, lh), (hw, hh) = meta.lr_size, meta.hr_size
-    for i in range(meta.frame_count):
-        def put(key, image, half=True, channels=("R", "G")):
-            write_exr(root / key / sequence / f"{i:04d}.exr", image, half=half, channels=channels)
-
-        def rgba(res, buffer):
-            rgb = read_raw_buffer(seq_dir, res, buffer, i)
-            return np.concatenate([rgb, np.ones_like(rgb[..., :1])], axis=-1)
-
-        put("ground_truth", rgba("hr", "reference"), channels=tuple("RGBA"))
-        put("motion_gt", read_raw_buffer(seq_dir, "hr", "motion", i) / np.float32([hw, hh]))
-        put(f"{ratio}/color", rgba("lr", "color"), channels=tuple("RGBA"))
-        put(f"{ratio}/depth", read_raw_buffer(seq_dir, "lr", "depth", i), half=False, channels=("R",))
-        put(f"{ratio}/motion", read_raw_buffer(seq_dir, "lr", "motion", i) / np.float32([lw, lh]))
-    frames = [{
-        "Frame": i, "FovX": 1.0, "FovY": 0.6, "CameraNearPlane": meta.near, "CameraFarPlane": meta.far,
-        # column-major storage of the row-vector matrix (P V)^T: the row-major listing of P V
-        "ViewProjection": [float(v) for v in (np.array(f.proj).reshape(4, 4) @ np.array(f.view).reshape(4, 4)).ravel()],
-        "Jitter": {"X": f.jitter[0], "Y": f.jitter[1]},
-        "NormalizedPerRatioJitter": [{"X": f.jitter[0] / lw, "Y": f.jitter[1] / lh}],
-        "Exposure": meta.exposure, "CameraCut": bool(f.reset and i > 0),
-    } for i, f in enumerate(meta.frames)]
-    (root / f"{sequence}.json").write_text(json.dumps({
-        "Version": "1.0.1", "EmulatedFramerate": 30, "TargetResolution": {"X": hw, "Y": hh},
-        "Samples": {"Sequence": meta.jitter_pattern, "Count": 12, "Quantized": True}, "ReverseZ": False,
-        "UpscalingRatiosIndices": {f"{ratio}_index": 0}, "Frames": frames,
-    }))

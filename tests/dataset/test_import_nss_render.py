@@ -7,8 +7,7 @@ import pytest
 from mnss_kit import cli
 from mnss_kit.dataset.format import read_buffer, read_meta
 from mnss_kit.dataset.exr import read_exr
-
-from capture_helpers import dataset_to_nss
+from mnss_kit.dataset.nss_export import write_nss_sequence
 
 CAMERA = """
 keyframes:
@@ -32,7 +31,7 @@ def test_rendered_nss_capture_imports_to_the_native_dataset(tmp_path, capsys):
     (tmp_path / "render.yaml").write_text(CONFIG)
     assert cli.main(["render", str(tmp_path / "render.yaml"), "--out", str(tmp_path / "native"), "--no-progress"]) == 0
     native = tmp_path / "native" / "arena"
-    dataset_to_nss(native, tmp_path / "nss")
+    write_nss_sequence(native, tmp_path / "nss")
     assert cli.main(["data", "import", "nss", str(tmp_path / "nss"), "--out", str(tmp_path / "imported")]) == 0, capsys.readouterr().err
     imported = tmp_path / "imported" / "x2" / "0000"
     n_meta, i_meta = read_meta(native), read_meta(imported)

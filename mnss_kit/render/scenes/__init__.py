@@ -1,4 +1,4 @@
-"""Built-in scenes modelled on three game genres, and the scene-file import path."""
+"""Built-in scenes (three modelled on game genres, one industrial interior) and the scene-file import path."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ from ...errors import UserError
 from ..camera import CameraPath
 from ..config import RenderConfig, SequenceConfig, resolve_asset
 from ..scene import Scene, Sun, static_instances
-from . import arena, flight, town
+from . import arena, factory, flight, town
 
-BUILDERS = {"arena": arena.build, "town": town.build, "flight": flight.build}
+BUILDERS = {"arena": arena.build, "town": town.build, "flight": flight.build, "factory": factory.build}
 
 
 def build_scene(seq: SequenceConfig, cfg: RenderConfig) -> Scene:
