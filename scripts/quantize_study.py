@@ -159,7 +159,7 @@ def measure_latency(model, arts: dict, sample, repeats: int) -> tuple[dict, floa
     import numpy as np
     import torch
 
-    from bench_quantize import interleaved_medians
+    from mnss_kit.bench.latency import interleaved_medians
     from mnss_kit.quantize.runtime import TfliteRunner, quantize_inputs
     from mnss_kit.quantize.tflite_writer import to_tflite
     from mnss_kit.quantize.trace import trace
