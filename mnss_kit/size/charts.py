@@ -75,6 +75,8 @@ def _target_lines(doc: dict, rows: list[dict], key: str) -> list[tuple[float, st
         kind, _, value = text.partition(":")
         if kind == "within" and key == "psnr":
             lines.append((largest["psnr"] - float(value), f"target {text}"))
+        elif kind == "taau" and key == "psnr" and "taau" in doc["baselines"]:
+            lines.append((doc["baselines"]["taau"]["psnr"] + float(value), f"target {text}"))
         elif kind == key:
             lines.append((float(value), f"target {text}"))
     return lines

@@ -19,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="without --test: hold the last K sequences of --data out of training (default: %(default)s)")
     parser.add_argument("--target", action="append", required=True, metavar="SPEC",
                         help="quality target, repeatable (all must hold): within:DB (PSNR at most DB below the largest "
-                             "rung), psnr:FLOOR, ssim:FLOOR, if_ssim:FLOOR")
+                             "rung), taau:DB (PSNR at least DB above TAAU), psnr:FLOOR, ssim:FLOOR, if_ssim:FLOOR")
     parser.add_argument("--budget-ms", type=float, metavar="MS", help="estimated frame ms the model may take on --device")
     parser.add_argument("--device", metavar="NAME", help="device profile of --budget-ms (mnss_kit/configs/devices)")
     parser.add_argument("--ladder", nargs="+", metavar="CONFIG",

@@ -73,7 +73,7 @@ def run_size(request: SizeRequest) -> dict:
 def decide(doc: dict, targets: list[Target], budget: Budget | None, out: Path) -> dict:
     """Record the targets, each rung's misses and the choice in ``doc`` and ``OUT/size.json``."""
     rows = sorted(doc["rows"].values(), key=lambda r: r["macs_per_pixel"])
-    chosen, misses = choose(rows, targets, budget)
+    chosen, misses = choose(rows, targets, budget, doc["baselines"])
     for row in rows:
         row["misses"] = misses[row["config"]]
     doc["rows"] = {r["config"]: r for r in rows}

@@ -3,6 +3,7 @@
 Targets, as the command line writes them:
 
     within:DB        PSNR at most DB below the largest rung's (the ladder's best-funded model)
+    taau:DB          PSNR at least DB above TAAU's on the same frames (0: never below the free baseline)
     psnr:FLOOR       PSNR at least FLOOR dB
     ssim:FLOOR       SSIM at least FLOOR
     if_ssim:FLOOR    IF-SSIM at least FLOOR
@@ -21,14 +22,19 @@ FLOOR_METRICS = ("psnr", "ssim", "if_ssim")
 
 @dataclass(frozen=True)
 class Target:
-    kind: str  # "within" or a metric of FLOOR_METRICS
+    kind: str  # "within", "taau" or a metric of FLOOR_METRICS
     value: float
 
     def __str__(self) -> str:
         return f"{self.kind}:{self.value:g}"
 
-    def problem(self, row: dict, largest: dict) -> str | None:
-        """Why ``row`` misses this target (None when it meets it)."""
+    def problem(self, row: dict, largest: dict, baselines: dict) -> str | None:
+        """Why ``row`` misses this target (None when it meets it); ``baselines`` has TAAU's quality."""
+        if self.kind == "taau":
+            if "taau" not in baselines:
+                return "no TAAU result to compare with"
+            margin = row["psnr"] - baselines["taau"]["psnr"]
+            return None if margin >= self.value else f"PSNR {margin:+.2f} dB against TAAU (needs {self.value:+g})"
         if self.kind == "within":
             gap = largest["psnr"] - row["psnr"]
             return None if gap <= self.value else f"PSNR {gap:.2f} dB below {largest['config']} (allowed {self.value:g})"
@@ -53,8 +59,8 @@ class Budget:
 
 def parse_target(text: str) -> Target:
     kind, sep, value = text.partition(":")
-    if not sep or kind not in ("within", *FLOOR_METRICS):
-        raise UserError(f"target '{text}': expected within:DB or one of {', '.join(m + ':FLOOR' for m in FLOOR_METRICS)}")
+    if not sep or kind not in ("within", "taau", *FLOOR_METRICS):
+        raise UserError(f"target '{text}': expected within:DB, taau:DB or one of {', '.join(m + ':FLOOR' for m in FLOOR_METRICS)}")
     try:
         number = float(value)
     except ValueError:
@@ -64,7 +70,8 @@ def parse_target(text: str) -> Target:
     return Target(kind, number)
 
 
-def choose(rows: list[dict], targets: list[Target], budget: Budget | None = None) -> tuple[dict | None, dict[str, list[str]]]:
+def choose(rows: list[dict], targets: list[Target], budget: Budget | None = None,
+           baselines: dict | None = None) -> tuple[dict | None, dict[str, list[str]]]:
     """``(chosen row or None, {config: reasons it was not chosen})`` for a ladder of evaluated rungs.
 
     Each row has ``config``, ``macs_per_pixel``, ``psnr``, ``ssim``, ``if_ssim`` and ``device_ms``.
@@ -75,7 +82,7 @@ def choose(rows: list[dict], targets: list[Target], budget: Budget | None = None
     largest = max(rows, key=lambda r: (r["macs_per_pixel"], r.get("params", 0)))
     misses = {}
     for row in rows:
-        problems = [p for p in (t.problem(row, largest) for t in targets) if p]
+        problems = [p for p in (t.problem(row, largest, baselines or {}) for t in targets) if p]
         if budget is not None and (p := budget.problem(row)):
             problems.append(p)
         misses[row["config"]] = problems

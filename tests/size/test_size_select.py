@@ -36,6 +36,14 @@ def test_floors_and_budget_all_have_to_hold():
     assert choose(LADDER, [Target("psnr", 30)], Budget("other", 3.0))[1]["tiny"] == ["no estimate for other"]
 
 
+def test_a_taau_target_compares_with_the_baseline_on_the_same_frames():
+    taau = {"taau": {"psnr": 34.5}}
+    chosen, misses = choose(LADDER, [Target("taau", 0.2)], baselines=taau)
+    assert chosen["config"] == "default" and misses["small"] == ["PSNR +0.10 dB against TAAU (needs +0.2)"]
+    assert choose(LADDER, [Target("taau", 0.0)], baselines=taau)[0]["config"] == "small"
+    assert choose(LADDER, [Target("taau", 0.0)])[1]["tiny"] == ["no TAAU result to compare with"]
+
+
 def test_ties_in_macs_go_to_fewer_parameters():
     ladder = [rung("wide", 3000, 34.0, params=900), rung("narrow", 3000, 34.0, params=500), rung("big", 9000, 34.1)]
     assert choose(ladder, [Target("within", 0.3)])[0]["config"] == "narrow"
@@ -49,7 +57,8 @@ def test_no_rung_meets_a_target_out_of_reach():
 
 
 @pytest.mark.parametrize("text, expected", [("within:0.3", Target("within", 0.3)), ("psnr:34", Target("psnr", 34.0)),
-                                            ("if_ssim:0.99", Target("if_ssim", 0.99)), ("ssim:0.9", Target("ssim", 0.9))])
+                                            ("if_ssim:0.99", Target("if_ssim", 0.99)), ("ssim:0.9", Target("ssim", 0.9)),
+                                            ("taau:0", Target("taau", 0.0))])
 def test_targets_parse(text, expected):
     assert parse_target(text) == expected
     assert str(parse_target(text)) == f"{expected.kind}:{expected.value:g}"
