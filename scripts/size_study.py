@@ -57,7 +57,7 @@ def write_doc() -> None:
              "`mnss-kit size` trains a ladder of model configs for the same number of steps on a scene's own "
              "sequences, evaluates each on held-out sequences of that scene, and chooses the smallest whose "
              "quality meets the targets. Here the targets are `within:0.3` (PSNR at most 0.3 dB below the largest "
-             "rung, `mnss_x2`) and `taau:0` (PSNR not below TAAU's on the same frames), the ladder is {', '.join(f'`{n}`' for n in LADDER)}, {STEPS} steps per rung, "
+             f"rung, `mnss_x2`) and `taau:0` (PSNR not below TAAU's on the same frames), the ladder is {', '.join(f'`{n}`' for n in LADDER)}, {STEPS} steps per rung, "
              "on two built-in scenes of clearly different complexity.", ""]
     chosen = {}
     for scene, (train, test) in SCENES.items():
