@@ -85,7 +85,7 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
 
     with tempfile.TemporaryDirectory(prefix="mnss-export-calibration-") as tmp:
         root = Path(data) if data else quantize_api.render_calibration_data(Path(tmp), progress, with_reference=False)
-        sequences = quantize_api.open_data(root, model.scale, hr_buffers=family_of(model).hr_inputs)
+        sequences = quantize_api.open_data(root, model.scale, family=family_of(model))
         samples_wanted = quantize_api.CALIBRATION_SAMPLES
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", samples_wanted, root)
         samples = quantize_api.calibration_samples(model, sequences, samples_wanted, progress=progress)
