@@ -146,5 +146,7 @@ def demodulate(color: torch.Tensor, fbeta: torch.Tensor, emissive: torch.Tensor)
 
 
 def remodulate(l: torch.Tensor, fbeta: torch.Tensor, emissive: torch.Tensor) -> torch.Tensor:
-    """``ops.demodulation.remodulate``: display colour of ``F_beta * L + emissive``."""
-    return to_display(fbeta * from_display(l) + emissive)
+    """``ops.demodulation.remodulate``: display colour of ``F_beta * L + emissive`` (emissive alone where
+    F_beta < ``FBETA_EPSILON``)."""
+    reflected = torch.where(fbeta < FBETA_EPSILON, 0.0, fbeta * from_display(l))
+    return to_display(reflected + emissive)

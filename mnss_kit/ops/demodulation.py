@@ -11,7 +11,7 @@ emissive buffer (which holds the sky radiance).  Colours cross this module as di
 as well, so the network sees values in [0, 1) and the NPU tensors have a fixed range::
 
     demodulate(colour, F_beta, E)    = to_display(max(from_display(colour) - E, 0) / F_beta)
-    remodulate(l, F_beta, E)         = to_display(F_beta * from_display(l) + E)
+    remodulate(l, F_beta, E)         = to_display(F_beta * from_display(l) + E), E alone where F_beta < eps
 
 The torch versions (``model.layers``) and the GLSL passes (``demodulate.glsl``,
 ``remodulate.glsl``) follow these functions; arrays are ``(..., 3)`` float32.
@@ -35,8 +35,11 @@ def demodulate(color: np.ndarray, fbeta: np.ndarray, emissive: np.ndarray) -> np
 
 
 def remodulate(l: np.ndarray, fbeta: np.ndarray, emissive: np.ndarray) -> np.ndarray:
-    """Display-encoded L, F_beta, linear emissive -> display colour in [0, 1)."""
-    linear = np.asarray(fbeta, np.float32) * from_display(l) + np.asarray(emissive, np.float32)
+    """Display-encoded L, F_beta, linear emissive -> display colour in [0, 1); the emissive buffer
+    alone where F_beta < ``FBETA_EPSILON`` (the pixels demodulation did not divide)."""
+    fbeta = np.asarray(fbeta, np.float32)
+    reflected = np.where(fbeta >= np.float32(FBETA_EPSILON), fbeta * from_display(l), np.float32(0))
+    linear = reflected + np.asarray(emissive, np.float32)
     return to_display(np.maximum(linear, np.float32(0)))
 
 

@@ -5,8 +5,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-# HR G-buffers the H-Net can read, with their channels, in the order they are concatenated
-GBUFFER_CHANNELS = {"fbeta": 3, "normal": 3, "depth": 1, "albedo": 3}
+from ...dataset.format import BUFFERS
+from ...gpu.passes import PACKED_GBUFFERS
+
+# HR G-buffers the H-Net can read, with their channels, in the order gbuffer_pack_pass concatenates them
+GBUFFER_CHANNELS = {g: len(BUFFERS["hr"][g].channels) for g in PACKED_GBUFFERS}
 SCALES = (2, 3, 4)
 
 
