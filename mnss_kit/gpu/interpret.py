@@ -97,9 +97,9 @@ def _demodulate(p, c: Call):
 def _gbuffer_pack(p, c: Call):
     mask = c.u("u_gbuffers")
     gbuffers = {name: c.read[name] for i, name in enumerate(P.PACKED_GBUFFERS) if mask & (1 << i)}
-    warped = c.read["warped"] if c.u("u_history") else None
     features = c.read["features"][..., : c.u("u_features")]
-    return {"npu_input": p.gbuffer_pack(c.read["l"], features, warped, gbuffers, c.u("u_scale"), bool(c.u("u_reset")),
+    return {"npu_input": p.gbuffer_pack(c.read["l"], features, c.read["warped"], gbuffers, c.u("u_scale"),
+                                        bool(c.u("u_history")), bool(c.u("u_reset")),
                                         c.u("u_q_scale"), c.u("u_q_zero_point"), c.profile)}
 
 

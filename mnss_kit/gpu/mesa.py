@@ -315,21 +315,21 @@ class MesaPasses:
         return self.read(out, "rgba16f", 3)
 
     @_in_own_context
-    def gbuffer_pack(self, l, features, warped, gbuffers: dict, scale: int, reset: bool, q_scale: float,
+    def gbuffer_pack(self, l, features, warped, gbuffers: dict, scale: int, history: bool, reset: bool, q_scale: float,
                      q_zero_point: int, profile: str):
         h, w = l.shape[:2]
-        channels = 3 + features.shape[-1] + (0 if warped is None else 3 * scale * scale)
+        channels = 3 + features.shape[-1] + (3 * scale * scale if history else 0)
         channels += sum(g.shape[-1] for g in gbuffers.values()) * scale * scale
         nbytes = h * w * channels
         words = -(-nbytes // 4)
         out = self.ctx.buffer(reserve=words * 4)
         res = {"l": self.texture_array(l), "features": self.texture_array(features), "npu_input": out,
-               "warped": self._placeholder() if warped is None else self.texture(warped, "rgba16f")}
+               "warped": self.texture(warped, "rgba16f") if history and not reset else self._placeholder()}
         for name in P.PACKED_GBUFFERS:
             fmt = P.PASSES["gbuffer_pack_pass"].binding(name).format
             res[name] = self.texture(gbuffers[name], fmt) if name in gbuffers else self._placeholder()
         mask = sum(1 << i for i, name in enumerate(P.PACKED_GBUFFERS) if name in gbuffers)
-        uni = {"u_scale": scale, "u_features": features.shape[-1], "u_history": int(warped is not None),
+        uni = {"u_scale": scale, "u_features": features.shape[-1], "u_history": int(history),
                "u_reset": int(bool(reset)), "u_gbuffers": mask, "u_word_count": words,
                **P.quantize_uniforms(q_scale, q_zero_point, profile)}
         self.run("gbuffer_pack_pass", (words,), res, uni)

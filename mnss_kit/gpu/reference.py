@@ -121,15 +121,17 @@ class ReferencePasses:
             return color
         return to_half(demodulation.demodulate(color, to_half(fbeta), to_half(emissive)))
 
-    def gbuffer_pack(self, l, features, warped, gbuffers: dict, scale: int, reset: bool, q_scale: float,
+    def gbuffer_pack(self, l, features, warped, gbuffers: dict, scale: int, history: bool, reset: bool, q_scale: float,
                      q_zero_point: int, profile: str):
-        """gbuffer_pack_pass -> the int8 NPU input (1,h,w,C): [L, features, warped history (None: not
-        packed; zero on a reset), the HR ``gbuffers`` ({name: (H,W,C)} in ``passes.PACKED_GBUFFERS``
+        """gbuffer_pack_pass -> the int8 NPU input (1,h,w,C): [L, features, with ``history`` the warped
+        history (zero on a reset, when ``warped`` is not read and may be None), the HR ``gbuffers`` ({name: (H,W,C)} in ``passes.PACKED_GBUFFERS``
         order, any subset)], HR images pixel-unshuffled (``ops.demodulation.pixel_unshuffle``), quantized as
         ``ops.quant.quantize`` under ``profile``.  Depth is r32f (float32), the rest fp16."""
         parts = [to_half(l)[..., :3], to_half(features)]
-        if warped is not None:
-            parts.append(demodulation.pixel_unshuffle(np.zeros_like(warped) if reset else to_half(warped), scale))
+        if history:
+            h, w = parts[0].shape[:2]
+            hr = np.zeros((h * scale, w * scale, 3), np.float32) if reset else to_half(np.asarray(warped)[..., :3])
+            parts.append(demodulation.pixel_unshuffle(hr, scale))
         for name in (g for g in PACKED_GBUFFERS if g in gbuffers):
             image = gbuffers[name]
             stored = np.asarray(image, np.float32) if name == "depth" else to_half(image)

@@ -62,7 +62,7 @@ def test_gbuffer_pack_matches_reference_bit_for_bit(mesa, ref, scale, history, r
               "depth": rng.uniform(0, 1, (hh, hw, 1)), "albedo": rng.uniform(0, 1, (hh, hw, 3))}
     chosen = {g: images[g].astype(np.float32) for g in gbuffers}
     for profile in ("tflite-ref", "xnnpack"):
-        args = (l, features, warped, chosen, scale, reset, 2.0 / 255.0, -3, profile)
+        args = (l, features, warped, chosen, scale, history, reset, 2.0 / 255.0, -3, profile)
         got, want = mesa.gbuffer_pack(*args), ref.gbuffer_pack(*args)
         assert got.shape == want.shape == (1, H, W, 3 + 5 + (3 * scale**2 if history else 0)
                                            + sum(3 if g != "depth" else 1 for g in gbuffers) * scale**2)
@@ -75,7 +75,7 @@ def test_gbuffer_pack_layout_is_pixel_unshuffle(ref, scale):
     rng = np.random.default_rng(7)
     depth = rng.uniform(0, 1, (H * scale, W * scale, 1)).astype(np.float32)
     q = ref.gbuffer_pack(np.zeros((H, W, 3), np.float32), np.zeros((H, W, 1), np.float32), None, {"depth": depth},
-                         scale, False, 1.0 / 255.0, -128, "tflite-ref")
+                         scale, False, False, 1.0 / 255.0, -128, "tflite-ref")
     i, j, dy, dx = 1, 2, scale - 1, 1
     code = q[0, i, j, 4 + dy * scale + dx]
     assert code == np.clip(np.rint(depth[scale * i + dy, scale * j + dx, 0] * 255) - 128, -128, 127)

@@ -4,6 +4,7 @@
     net.py       the torch model and its stages: warp, demodulate, encode, unshuffle, backbone, remodulate
     loss.py      the training loss
     costs.py     fixed-function MACs per stage
+    gpu_plan.py  the bundle's GPU side: passes, resources, weight blocks, per-frame schedule
 """
 
 from __future__ import annotations
@@ -26,9 +27,9 @@ def _loss(config: FuseSRConfig, train):
 
 
 def _gpu_plan(config: FuseSRConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
-    from ...errors import UserError
+    from .gpu_plan import bundle_gpu_plan
 
-    raise UserError("the fusesr family has no GPU plan yet: it trains and evaluates, but does not export")
+    return bundle_gpu_plan(config, state_dict, lr_size, npu, profile)
 
 
 FUSESR_FAMILY = Family(

@@ -105,7 +105,7 @@ class Backbone(nn.Module):
         mods: list[nn.Module] = []
         for i in range(layers):
             mods += [conv(c_in if i == 0 else width, width, separable), nn.ReLU()]
-        mods += [conv(width, hr_channels * scale * scale, separable), nn.PixelShuffle(scale), nn.ReLU()]
+        mods += [conv(width, hr_channels * scale * scale, separable), nn.ReLU(), nn.PixelShuffle(scale)]  # ReLU commutes with the shuffle
         self.body = nn.Sequential(*mods)
         self.out = nn.Conv2d(hr_channels, 3, 3, padding=1)
         nn.init.zeros_(self.out.weight)  # a fresh net is its skip: the nearest upsample of L
