@@ -12,7 +12,7 @@ import numpy as np
 
 from ...errors import UserError
 from ...gpu import passes as P
-from ...gpu.plan import WEIGHTS_PREFIX, const, pass_entries, per_frame, quantize_uniforms, step, word_count
+from ...gpu.plan import WEIGHTS_PREFIX, const, pass_entries, per_frame, quantize_uniforms, step, warp_step, word_count
 from ...gpu.weights import Conv3x3, layers_of
 from .config import FuseSRConfig
 
@@ -104,10 +104,7 @@ def schedule(config: FuseSRConfig, encoder: Conv3x3, lr_size: tuple[int, int], n
     demodulate = int(config.demodulate)
     steps = []
     if config.history:
-        steps.append(step("warp_pass", "warp history", "warp_history", {
-            "history": "history", "prev_depth": "prev_depth", "motion": "motion", "warped": "warped", "warped_depth": "warped_depth",
-        }, {"u_scale": const(s), "u_subpixel": per_frame("subpixel"), "u_prev_jitter": per_frame("previous_offset"),
-            "u_prev_subpixel": per_frame("previous_subpixel")}, skip_on_reset=True, **a))
+        steps.append(warp_step("warp_history", "warp history", **a))
     steps.append(step("demodulate_pass", "demodulate", "demodulate" if demodulate else "encode", {
         "color": "color", "fbeta": "lr_fbeta" if demodulate else "unused", "emissive": "lr_emissive" if demodulate else "unused",
         "l": "l"}, {"u_demodulate": const(demodulate)}, **a))
