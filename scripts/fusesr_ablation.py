@@ -9,8 +9,10 @@ Four ``fusesr_x4_l`` models identical except ``model.gbuffers`` (all four, or no
 with the same seed and one thread, one run at a time, then evaluated on the held-out x4 test
 set.  A fifth run trains ``mnss_x2_tiny`` at x4 (more MACs per output pixel than
 ``fusesr_x4_l``) on the same data with the same budget, for the issue's family comparison.
-Every stage goes through ``mnss_kit.cli.main`` (``mnss-kit render``, ``train``, ``eval``) and is
-skipped when its output exists, so an interrupted study resumes.
+Then ``mnss-kit quantize`` takes the "both" model (``fusesr_x4_l``) to int8 and compares it with
+fp32 on the held-out set.  Every stage goes through ``mnss_kit.cli.main`` (``mnss-kit render``,
+``train``, ``eval``, ``quantize``) and is skipped when its output exists, so an interrupted study
+resumes.
 """
 
 from __future__ import annotations
@@ -37,7 +39,8 @@ METRICS = (("psnr", "PSNR dB", "{:.2f}"), ("ssim", "SSIM", "{:.4f}"), ("if_ssim"
 # the paper's ablation ordering, best first: both > either alone > neither
 ABLATION = ("both", "gbuffers", "demodulation", "neither")
 LABELS = {"both": "HR G-buffers + demodulation", "gbuffers": "HR G-buffers only", "demodulation": "demodulation only",
-          "neither": "neither", "mnss": "MNSS (mnss_x2_tiny at x4)"}
+          "neither": "neither", "mnss": "MNSS (mnss_x2_tiny at x4)",
+          "both_same_steps": "HR G-buffers + demodulation, the steps of 'demodulation only'"}
 
 
 @dataclass
@@ -45,6 +48,7 @@ class Run:
     name: str
     config: str
     overrides: list[str] = field(default_factory=list)
+    steps_of: str | None = None  # train for as many steps as this run took (no time budget)
 
 
 RUNS = [
@@ -53,6 +57,8 @@ RUNS = [
     Run("demodulation", "fusesr_x4_l", ["model.gbuffers=[]"]),
     Run("neither", "fusesr_x4_l", ["model.gbuffers=[]", "model.demodulate=false"]),
     Run("mnss", "mnss_x2_tiny", ["model.scale=4", "train.burn_in=4", "train.window=2", "train.crop=24"]),
+    # the machine's load moves the steps a time budget buys: "both" again with the step count of "demodulation"
+    Run("both_same_steps", "fusesr_x4_l", steps_of="demodulation"),
 ]
 
 
@@ -65,11 +71,18 @@ def cli(argv: list[str]) -> None:
 
 
 def train(run: Run, train_data: Path, budget: float) -> Path:
+    from mnss_kit.model.checkpoint import read_record
+
     model = WORK / "runs" / run.name / "model.pt"
     if model.exists():
         return model
-    keys = [f"train.train_data={train_data}", "train.val_data=null", "train.total_steps=1000000", "train.steps_per_epoch=1000",
-            f"train.time_budget_min={budget}", f"train.threads={THREADS}", "train.val_every=0", "train.checkpoint_every=200",
+    if run.steps_of:
+        steps = read_record(WORK / "runs" / run.steps_of / "model.pt")[0]["training"]["steps"]
+        limit = [f"train.total_steps={steps}", "train.time_budget_min=null"]
+    else:
+        limit = ["train.total_steps=1000000", f"train.time_budget_min={budget}"]
+    keys = [f"train.train_data={train_data}", "train.val_data=null", *limit, "train.steps_per_epoch=1000",
+            f"train.threads={THREADS}", "train.val_every=0", "train.checkpoint_every=200",
             "train.seed=0", "train.gt_history_epochs=0", "train.lr_schedule=constant"]
     sets = [arg for key in run.overrides + keys for arg in ("--set", key)]
     cli(["train", run.config, "--out", str(model.parent), "--no-progress", *sets])
@@ -99,6 +112,16 @@ def collect(run: Run, model: Path, eval_json: Path, train_data: Path, test_data:
     }
 
 
+def quantize(model: Path, train_data: Path, test_data: Path, eval_frames: int) -> dict:
+    """int8 against fp32 of ``model`` on the held-out set (``mnss-kit quantize``'s report)."""
+    out = WORK / "int8" / "both"
+    if not (out / "report.json").exists():
+        cli(["quantize", str(model), "--data", str(train_data), "--eval-data", str(test_data), "--pipeline-frames",
+             str(eval_frames), "--out", str(out), "--overwrite", "--no-progress"])
+    report = json.loads((out / "report.json").read_text())
+    return {k: report[k] for k in ("fp32", "int8", "delta")}
+
+
 def run_study(args) -> dict:
     import torch
 
@@ -110,7 +133,9 @@ def run_study(args) -> dict:
     for run in RUNS:
         model = train(run, args.train_data, args.budget)
         results.append(collect(run, model, evaluate(run, model, args.test_data, args.eval_frames), args.train_data, args.test_data))
+    int8 = quantize(WORK / "runs" / "both" / "model.pt", args.train_data, args.test_data, args.eval_frames)
     return {
+        "int8": int8,
         "command": "nice -n 10 python scripts/fusesr_ablation.py"
                    + (f" --budget {args.budget}" if args.budget != BUDGET_MIN else "")
                    + (f" --eval-frames {args.eval_frames}" if args.eval_frames != 15 else ""),
@@ -122,7 +147,8 @@ def run_study(args) -> dict:
 def orderings(results: dict) -> list[dict]:
     """The paper's ablation ordering on PSNR: both > each alone > neither, and the family comparison."""
     by = {r["name"]: r for r in results["runs"]}
-    pairs = [("both", "gbuffers"), ("both", "demodulation"), ("gbuffers", "neither"), ("demodulation", "neither"), ("both", "mnss")]
+    pairs = [("both", "gbuffers"), ("both", "demodulation"), ("gbuffers", "neither"), ("demodulation", "neither"), ("both", "mnss"),
+             ("both_same_steps", "demodulation")]
     out = []
     for better, worse in pairs:
         claim = f"{LABELS[better]} > {LABELS[worse]}"
@@ -136,7 +162,7 @@ def orderings(results: dict) -> list[dict]:
 
 def table(runs: list[dict]) -> list[str]:
     head = "| run | " + " | ".join(t for _, t, _ in METRICS) + " | bicubic PSNR dB | MACs/px | params | steps | train min |"
-    out = [head, "|" + "---|" * (len(METRICS) + 7)]
+    out = [head, "|" + "---|" * (len(METRICS) + 6)]
     for r in runs:
         cells = [f.format(r["model"][k]) for k, _, f in METRICS]
         out.append(f"| {LABELS[r['name']]} | " + " | ".join(cells) + f" | {r['bicubic']['psnr']:.2f} | "
@@ -173,7 +199,9 @@ def render_doc(results: dict) -> str:
         f"**Budget caveat.** Every run trains for the same {results['budget_min']:g} wall-clock minutes "
         f"({results['threads']} thread, one run at a time, seed 0, constant learning rate) on "
         f"`{first['train_data']}`, on a 2-core CPU shared with other work: a model that costs more per "
-        "step gets fewer steps.  Evaluated on the held-out "
+        "step gets fewer steps, and so does a run made while the machine is busier (the steps column); "
+        "the last row trains the HR G-buffers + demodulation model again for exactly the steps of the "
+        "demodulation-only run.  Evaluated on the held-out "
         f"`{first['test_data']}` (first {results['eval_frames_per_sequence']} frames of each sequence, "
         "recurrent, as `mnss-kit eval`).  These are short runs, far from convergence.",
         "",
@@ -189,7 +217,22 @@ def render_doc(results: dict) -> str:
          "The ablation ordering (both > either alone > neither) is NOT fully confirmed on PSNR at this budget: "
          "see the lines marked 'does NOT hold' or 'not measured'."),
         "",
+        *int8_section(results.get("int8")),
     ])
+
+
+def int8_section(int8: dict | None) -> list[str]:
+    if not int8:
+        return []
+    row = lambda name: f"| {name} | " + " | ".join(f.format(int8[name][k]) for k, _, f in METRICS) + " |"  # noqa: E731
+    return ["## int8 NPU stage", "",
+            "`mnss-kit quantize` of the HR G-buffers + demodulation model (`fusesr_x4_l`), minmax calibration "
+            "on the training set, the recurrent pipeline on the held-out set with the backbone in LiteRT "
+            "(tflite-ref) and every GPU stage in PyTorch float32:", "",
+            "| | " + " | ".join(t for _, t, _ in METRICS) + " |", "|" + "---|" * (len(METRICS) + 1),
+            row("fp32"), row("int8"),
+            "| int8 - fp32 | " + " | ".join(("{:+.2f}" if k == "psnr" else "{:+.4f}").format(int8["delta"][k])
+                                             for k, _, _ in METRICS) + " |", ""]
 
 
 def main(argv=None) -> int:
