@@ -174,7 +174,7 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
     model.eval()
     label = _label(name)
     family = family_of(model)
-    samples = calibration_samples(model, open_data(calibration, model.scale, hr_buffers=family.hr_inputs), CALIBRATION_SAMPLES)
+    samples = calibration_samples(model, open_data(calibration, model.scale, family=family), CALIBRATION_SAMPLES)
     art = at_size(quantize_module(npu_module(model), samples, QuantizeOptions(), name=label), npu_module(model), data)
     methods = {"fp32": model_method(model), "int8": model_method(int8_model(model, art))}
     result = evaluate(methods, data, scale=model.scale, max_frames=settings.max_frames, progress=False)

@@ -112,6 +112,26 @@ class SequenceMeta:
         return len(self.frames)
 
 
+def key_buffer(key: str) -> tuple[str, str]:
+    """The dataset buffer behind a frame key: ``hr_<name>`` is HR ``<name>``, ``lr_<name>`` LR ``<name>``,
+    the rest (``color``, ``depth``, ``motion``) LR buffers of that name."""
+    for res in ("hr", "lr"):
+        if key.startswith(f"{res}_"):
+            return res, key[len(res) + 1:]
+    return "lr", key
+
+
+def extra_buffers_of(keys) -> dict[str, list[str]]:
+    """``{"hr_buffers": [...], "lr_buffers": [...]}``: the optional buffers frame ``keys`` name (for
+    ``dataset.loader.eval_sequences``)."""
+    out: dict[str, list[str]] = {"hr_buffers": [], "lr_buffers": []}
+    for key in keys:
+        res, buffer = key_buffer(key)
+        if buffer not in REQUIRED_BUFFERS[res]:
+            out[f"{res}_buffers"].append(buffer)
+    return out
+
+
 def buffer_path(seq_dir: str | Path, res: str, buffer: str, index: int) -> Path:
     return Path(seq_dir) / res / buffer / f"{index:05d}.exr"
 

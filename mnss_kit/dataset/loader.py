@@ -130,8 +130,10 @@ def open_sequences(
     cache: bool,
     cache_dir: str | Path | None,
     progress: bool = True,
+    needed_by: str = "",
 ) -> list[LoadedSequence]:
-    """Every sequence under ``root`` (a dataset, a sequence, or a list of them), checked for the wanted buffers."""
+    """Every sequence under ``root`` (a dataset, a sequence, or a list of them), checked for the wanted buffers;
+    ``needed_by`` names who wants the optional ones (e.g. ``the fusesr family``) in the error."""
     roots = [root] if isinstance(root, (str, Path)) else list(root)
     seq_dirs = [s for r in roots for s in find_sequences(r)]
     metas = [read_meta(s) for s in seq_dirs]
@@ -142,7 +144,9 @@ def open_sequences(
                 raise UserError(f"{seq_dir}: frame {index} in meta.json has index {frame.index}; frames must be 0, 1, 2, ... in order")
         for res, buffer in wanted:
             if buffer not in meta.buffers.get(res, []):
-                raise UserError(f"{seq_dir}: buffer {res}/{buffer} is not in this sequence (meta.json buffers.{res})")
+                who = f", which {needed_by} needs," if needed_by and (res, buffer) not in BASE_KEYS.values() else ""
+                raise UserError(f"{seq_dir}: buffer {res}/{buffer}{who} is not in this sequence (meta.json buffers.{res}; "
+                                "docs/dataset.md lists each family's buffers)")
     if not cache:
         return [LoadedSequence(s, m, ExrFrames(s, m)) for s, m in zip(seq_dirs, metas)]
     cache_root = Path(cache_dir) if cache_dir else default_cache_dir(roots[0])
@@ -175,13 +179,14 @@ class WindowDataset(Dataset):
         cache: bool = True,
         cache_dir: str | Path | None = None,
         progress: bool = True,
+        needed_by: str = "",
     ):
         if window < 1 or stride < 1:
             raise UserError(f"window and stride must be >= 1, got window={window} stride={stride}")
         self.window, self.seed, self.epoch = window, seed, 0
         self.window_starts_reset = window_starts_reset
         self.extra_keys = extra_buffer_keys(hr_buffers, lr_buffers)
-        self.sequences = open_sequences(root, self.extra_keys, cache, cache_dir, progress)
+        self.sequences = open_sequences(root, self.extra_keys, cache, cache_dir, progress, needed_by)
         scales = {s.meta.scale for s in self.sequences}
         if len(scales) != 1:
             raise UserError(f"sequences have different scales {sorted(scales)}; train one scale at a time")
@@ -271,6 +276,7 @@ def eval_sequences(
     cache: bool = False,
     cache_dir: str | Path | None = None,
     progress: bool = True,
+    needed_by: str = "",
 ) -> list[SequenceFrames]:
     """Every sequence under ``root`` for evaluation or calibration, sorted by directory.
 
@@ -278,4 +284,4 @@ def eval_sequences(
     training cache instead.
     """
     extra = extra_buffer_keys(hr_buffers, lr_buffers)
-    return [SequenceFrames(s, extra) for s in open_sequences(root, extra, cache, cache_dir, progress)]
+    return [SequenceFrames(s, extra) for s in open_sequences(root, extra, cache, cache_dir, progress, needed_by)]

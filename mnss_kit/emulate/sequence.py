@@ -21,7 +21,7 @@ from typing import Iterator
 
 import numpy as np
 
-from ..dataset.format import SequenceMeta, find_sequences, read_buffer, read_meta
+from ..dataset.format import SequenceMeta, find_sequences, key_buffer, read_buffer, read_meta
 from ..errors import UserError
 from ..fileio import atomic_directory, atomic_write_bytes, atomic_write_json
 from ..metrics.psnr import psnr
@@ -31,22 +31,17 @@ from .frame_loop import Emulator
 log = logging.getLogger(__name__)
 
 
-def dataset_buffer(input_name: str) -> tuple[str, str]:
-    """The dataset buffer behind a bundle input resource: ``hr_<name>`` is HR ``<name>``, others are LR."""
-    return ("hr", input_name[3:]) if input_name.startswith("hr_") else ("lr", input_name)
-
-
 def sequence_frames(seq_dir: Path, meta: SequenceMeta, frames: int | None,
                     inputs: list[str]) -> Iterator[tuple[int, dict, np.ndarray | None]]:
     """``(index, frame, reference or None)`` for the first ``frames`` frames, with the bundle
     ``inputs``; the first one is a reset."""
     has_reference = "reference" in meta.buffers.get("hr", [])
     for name in inputs:
-        res, buffer = dataset_buffer(name)
+        res, buffer = key_buffer(name)
         if buffer not in meta.buffers.get(res, []):
             raise UserError(f"{seq_dir}: the bundle reads buffer {res}/{buffer}, which this sequence lacks (meta.json buffers.{res})")
     for i, fm in enumerate(meta.frames[:frames] if frames else meta.frames):
-        frame = {key: read_buffer(seq_dir, meta, *dataset_buffer(key), fm.index) for key in inputs}
+        frame = {key: read_buffer(seq_dir, meta, *key_buffer(key), fm.index) for key in inputs}
         frame["jitter"] = np.asarray(fm.jitter, np.float32)
         frame["reset"] = bool(fm.reset) or i == 0
         reference = read_buffer(seq_dir, meta, "hr", "reference", fm.index) if has_reference else None

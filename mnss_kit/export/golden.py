@@ -69,10 +69,10 @@ def frame_from_torch(frame: dict, inputs: list[str]) -> dict:
 def dataset_frames(data: Path, lr_size, scale: int, inputs: list[str], n: int) -> tuple[list[dict], str] | None:
     """The first ``n`` numpy frames (``inputs``) of the first sequence in dataset ``data`` at
     ``lr_size`` and ``scale`` with that many frames, and where they came from; None if none fits."""
+    from ..dataset.format import extra_buffers_of
     from ..dataset.loader import eval_sequences
 
-    hr_buffers = [k[len("hr_"):] for k in inputs if k.startswith("hr_")]
-    for seq in eval_sequences(data, hr_buffers=hr_buffers, progress=False):
+    for seq in eval_sequences(data, **extra_buffers_of(inputs), progress=False):
         if tuple(seq.meta.lr_size) == tuple(lr_size) and seq.meta.scale == scale and len(seq) >= n:
             return first_frames(seq, n, inputs), f"dataset {data}, sequence {seq.name}, frames 0..{n - 1}"
     return None

@@ -37,19 +37,23 @@ class NpuArtifacts:
 def retarget(graph, module, hr_size: tuple[int, int]):
     """``graph`` (quantized, NHWC) with every activation shape traced again for an ``hr_size`` = (W, H) input.
 
-    Graph inputs must be images at the output size (the reconstruction net's).  Quantization,
-    constants and op structure are copied unchanged; only shapes and size options follow the
-    new trace.  ``ValueError`` if the new trace does not have the same tensors.
+    Graph inputs are images at the output size (MNSS's reconstruction net) or at a fixed fraction
+    of it (FuseSR's backbone reads the LR size): each keeps its calibrated ratio to the output.
+    Quantization, constants and op structure are copied unchanged; only shapes and size options
+    follow the new trace.  ``ValueError`` if the new trace does not have the same tensors.
     """
     import torch
 
     from ..quantize.trace import trace
 
     width, height = hr_size
+    _, out_h, out_w, _ = graph.tensors[graph.outputs[0]].shape
     examples = []
     for name in graph.inputs:
-        n, _, _, c = graph.tensors[name].shape
-        examples.append(torch.zeros(n, c, height, width))
+        n, in_h, in_w, c = graph.tensors[name].shape
+        if (width * in_w) % out_w or (height * in_h) % out_h:
+            raise ValueError(f"input {name} ({in_w}x{in_h} for a {out_w}x{out_h} output) has no whole size at {width}x{height}")
+        examples.append(torch.zeros(n, c, height * in_h // out_h, width * in_w // out_w))
     fresh = trace(module, examples)
     out = copy.deepcopy(graph)
     for name in out.activations():
@@ -85,13 +89,13 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
 
     with tempfile.TemporaryDirectory(prefix="mnss-export-calibration-") as tmp:
         root = Path(data) if data else quantize_api.render_calibration_data(Path(tmp), progress, with_reference=False)
-        sequences = quantize_api.open_data(root, model.scale, hr_buffers=family_of(model).hr_inputs)
+        sequences = quantize_api.open_data(root, model.scale, family=family_of(model))
         samples_wanted = quantize_api.CALIBRATION_SAMPLES
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", samples_wanted, root)
         samples = quantize_api.calibration_samples(model, sequences, samples_wanted, progress=progress)
     art = quantize_module(npu_module(model), samples, QuantizeOptions(method=method), name=name)
     graph = retarget(art.graph, npu_module(model), hr_size)
-    calibrated_at = list(art.graph.tensors[art.graph.inputs[0]].shape[1:3][::-1])
+    calibrated_at = list(art.graph.tensors[art.graph.outputs[0]].shape[1:3][::-1])  # the HR size, as the bundle
     report = art.report
     quantization = {
         "source": "checkpoint",

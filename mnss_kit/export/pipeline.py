@@ -148,7 +148,7 @@ def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int) -
 
     if npu is not None:
         tflite = read_tflite(npu.tflite)
-        _, h, w, _ = tflite.tensors[tflite.inputs[0]].shape
+        _, h, w, _ = tflite.tensors[tflite.outputs[0]].shape  # the NPU's output is the HR image (its input may be LR)
         if request.resolution and parse_resolution(request.resolution) != (w, h):
             raise UserError(f"the quantize directory's npu.tflite runs at {w}x{h}, not {request.resolution}; "
                             f"export from the checkpoint to quantize for another size")
@@ -244,11 +244,11 @@ def model_section(ckpt: str, record: dict) -> dict:
 def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: str, inputs: list[str]) -> tuple[list[dict], str]:
     """``golden_frames`` consecutive numpy frames at ``lr_size``: from ``request.data`` when a sequence
     there has that size, else rendered (built-in scene, EGL)."""
+    from ..dataset.format import extra_buffers_of
     from ..dataset.loader import eval_sequences
     from .golden import dataset_frames, first_frames
 
     n = request.golden_frames
-    hr_buffers = [k[len("hr_"):] for k in inputs if k.startswith("hr_")]
     if request.data is not None and request.data.is_dir():
         found = dataset_frames(request.data, lr_size, scale, inputs, n)
         if found is not None:
@@ -260,5 +260,5 @@ def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: st
         seq_cfg = SequenceConfig(name="golden", scene=GOLDEN_SCENE, seed=1, frames=n, lr_size=tuple(lr_size), scale=scale,
                                  jitter=pattern, hr_samples=1)
         render_dataset(RenderConfig(sequences=[seq_cfg]), Path(tmp), progress=request.progress)
-        seq = eval_sequences(Path(tmp), hr_buffers=hr_buffers, progress=False)[0]
+        seq = eval_sequences(Path(tmp), **extra_buffers_of(inputs), progress=False)[0]
         return first_frames(seq, n, inputs), f"rendered: built-in scene '{GOLDEN_SCENE}', seed 1, frames 0..{n - 1}"

@@ -90,6 +90,25 @@ def _sharpen(p, c: Call):
     return {"display": p.sharpen(c.read["image"], c.u("u_beta"))}
 
 
+def _demodulate(p, c: Call):
+    return {"l": p.demodulate(c.read["color"], c.read["fbeta"], c.read["emissive"], bool(c.u("u_demodulate")))}
+
+
+def _gbuffer_pack(p, c: Call):
+    mask = c.u("u_gbuffers")
+    gbuffers = {name: c.read[name] for i, name in enumerate(P.PACKED_GBUFFERS) if mask & (1 << i)}
+    features = c.read["features"][..., : c.u("u_features")]
+    return {"npu_input": p.gbuffer_pack(c.read["l"], features, c.read["warped"], gbuffers, c.u("u_scale"),
+                                        bool(c.u("u_history")), bool(c.u("u_reset")),
+                                        c.u("u_q_scale"), c.u("u_q_zero_point"), c.profile)}
+
+
+def _remodulate(p, c: Call):
+    history, display = p.remodulate(c.read["npu_output"], c.read["fbeta"], c.read["emissive"], c.u("u_q_scale"),
+                                    c.u("u_q_zero_point"), bool(c.u("u_demodulate")))
+    return {"history": history, "display": display}
+
+
 # pass name -> (backend, call) -> {image or buffer binding written: array}
 PASS_CALLS: dict[str, Callable[[object, Call], dict]] = {
     "warp_pass": _warp,
@@ -100,6 +119,9 @@ PASS_CALLS: dict[str, Callable[[object, Call], dict]] = {
     "insert_pack_pass": _insert_pack,
     "unpack_history_pass": _unpack_history,
     "sharpen_pass": _sharpen,
+    "demodulate_pass": _demodulate,
+    "gbuffer_pack_pass": _gbuffer_pack,
+    "remodulate_pass": _remodulate,
 }
 
 

@@ -302,3 +302,48 @@ class MesaPasses:
         res = {"image": self.texture(image, "rgba16f"), "display": display}
         self.run("sharpen_pass", (hw, hh), res, {"u_beta": float(np.float32(beta))})
         return self.read(display, "rgba8", 3)
+
+    # -- FuseSR --------------------------------------------------------------------------------
+    @_in_own_context
+    def demodulate(self, color, fbeta, emissive, demodulate: bool):
+        h, w = color.shape[:2]
+        out = self.empty((w, h), "rgba16f", layers=1)
+        res = {"color": self.texture(color, "rgba16f"), "l": out,
+               "fbeta": self.texture(fbeta, "rgba16f") if demodulate else self._placeholder(),
+               "emissive": self.texture(emissive, "rgba16f") if demodulate else self._placeholder()}
+        self.run("demodulate_pass", (w, h), res, {"u_demodulate": int(demodulate)})
+        return self.read(out, "rgba16f", 3)
+
+    @_in_own_context
+    def gbuffer_pack(self, l, features, warped, gbuffers: dict, scale: int, history: bool, reset: bool, q_scale: float,
+                     q_zero_point: int, profile: str):
+        h, w = l.shape[:2]
+        channels = 3 + features.shape[-1] + (3 * scale * scale if history else 0)
+        channels += sum(g.shape[-1] for g in gbuffers.values()) * scale * scale
+        nbytes = h * w * channels
+        words = -(-nbytes // 4)
+        out = self.ctx.buffer(reserve=words * 4)
+        res = {"l": self.texture_array(l), "features": self.texture_array(features), "npu_input": out,
+               "warped": self.texture(warped, "rgba16f") if history and not reset else self._placeholder()}
+        for name in P.PACKED_GBUFFERS:
+            fmt = P.PASSES["gbuffer_pack_pass"].binding(name).format
+            res[name] = self.texture(gbuffers[name], fmt) if name in gbuffers else self._placeholder()
+        mask = sum(1 << i for i, name in enumerate(P.PACKED_GBUFFERS) if name in gbuffers)
+        uni = {"u_scale": scale, "u_features": features.shape[-1], "u_history": int(history),
+               "u_reset": int(bool(reset)), "u_gbuffers": mask, "u_word_count": words,
+               **P.quantize_uniforms(q_scale, q_zero_point, profile)}
+        self.run("gbuffer_pack_pass", (words,), res, uni)
+        return np.frombuffer(out.read(), dtype=np.int8)[:nbytes].reshape(1, h, w, channels).copy()
+
+    @_in_own_context
+    def remodulate(self, npu_output, fbeta, emissive, q_scale: float, q_zero_point: int, demodulate: bool):
+        _, hh, hw, _ = npu_output.shape
+        raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
+        raw += b"\0" * (-len(raw) % 4)
+        history, display = self.empty((hw, hh), "rgba16f"), self.empty((hw, hh), "rgba8")
+        res = {"npu_output": self.ctx.buffer(raw), "history": history, "display": display,
+               "fbeta": self.texture(fbeta, "rgba16f") if demodulate else self._placeholder(),
+               "emissive": self.texture(emissive, "rgba16f") if demodulate else self._placeholder()}
+        uni = {"u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point), "u_demodulate": int(demodulate)}
+        self.run("remodulate_pass", (hw, hh), res, uni)
+        return self.read(history, "rgba16f", 3), self.read(display, "rgba8", 3)

@@ -115,8 +115,33 @@ PASSES = {
             (_s("image", 0, HISTORY_FORMAT), _i("display", 0, DISPLAY_FORMAT)),
             ("u_beta",),
         ),
+        # FuseSR: demodulation, G-buffer unshuffle + pack, remodulation (conv3x3_pass encodes, warp_pass warps)
+        Pass(
+            "demodulate_pass", (8, 8, 1), "lr",
+            (_s("color", 0, "rgba16f"), _s("fbeta", 1, "rgba16f"), _s("emissive", 2, "rgba16f"),
+             _i("l", 0, "rgba16f", array=True)),
+            ("u_demodulate",),
+        ),
+        Pass(
+            "gbuffer_pack_pass", (64, 1, 1), "words",
+            (_s("l", 0, "rgba16f", array=True), _s("features", 1, "rgba16f", array=True), _s("warped", 2, "rgba16f"),
+             _s("fbeta", 3, "rgba16f"), _s("normal", 4, "rgba16f"), _s("depth", 5, "r32f"), _s("albedo", 6, "rgba16f"),
+             _b("npu_input", 0, "uint[]")),
+            ("u_scale", "u_features", "u_history", "u_reset", "u_gbuffers", "u_word_count", "u_q_scale", "u_q_reciprocal",
+             "u_q_use_reciprocal", "u_q_rounding", "u_q_zero_point"),
+        ),
+        Pass(
+            "remodulate_pass", (8, 8, 1), "hr",
+            (_b("npu_output", 0, "uint[]"), _s("fbeta", 0, "rgba16f"), _s("emissive", 1, "rgba16f"),
+             _i("history", 0, HISTORY_FORMAT), _i("display", 1, DISPLAY_FORMAT)),
+            ("u_q_scale", "u_q_zero_point", "u_demodulate"),
+        ),
     )
 }
+
+# HR G-buffers gbuffer_pack_pass reads, in its channel order; bit i of u_gbuffers selects entry i
+PACKED_GBUFFERS = ("fbeta", "normal", "depth", "albedo")
+
 
 def avgpool_channels(history_at_samples: bool) -> int:
     """Channels ``avgpool_pass`` writes, in order (each RGB): avgpool(I_R), then I_R at this

@@ -123,6 +123,15 @@ def step(name: str, label: str, stage_name: str, bind: dict, uniforms: dict, lr_
     }
 
 
+def warp_step(stage_name: str, label: str, lr_size, scale: int) -> dict:
+    """warp_pass on the resources of the same names (history, prev_depth, motion -> warped,
+    warped_depth), skipped on a reset frame: the history warp every recurrent family runs."""
+    bind = {name: name for name in ("history", "prev_depth", "motion", "warped", "warped_depth")}
+    uniforms = {"u_scale": const(scale), "u_subpixel": per_frame("subpixel"), "u_prev_jitter": per_frame("previous_offset"),
+                "u_prev_subpixel": per_frame("previous_subpixel")}
+    return step("warp_pass", label, stage_name, bind, uniforms, lr_size, scale, skip_on_reset=True)
+
+
 def const(value) -> dict:
     return {"value": value}
 

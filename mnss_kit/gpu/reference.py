@@ -19,8 +19,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ops import inpaint, quant, sharpen, subpixel, warp
+from ..ops import demodulation, inpaint, quant, sharpen, subpixel, warp
 from ..ops.resample import avgpool
+from .passes import PACKED_GBUFFERS
 from .weights import Conv3x3
 
 EPILOGUES = ("none", "relu", "residual_clamp")
@@ -111,3 +112,36 @@ class ReferencePasses:
     def sharpen(self, image, beta: float):
         """sharpen_pass: (H,W,3) -> display (H,W,3) uint8 of ``ops.sharpen.unsharp``."""
         return encode_unorm8(sharpen.unsharp(to_half(image), beta))
+
+    # -- FuseSR --------------------------------------------------------------------------------
+    def demodulate(self, color, fbeta, emissive, demodulate: bool):
+        """demodulate_pass -> (h,w,3) fp16 values: ``ops.demodulation.demodulate``, or the colour."""
+        color = to_half(color)
+        if not demodulate:
+            return color
+        return to_half(demodulation.demodulate(color, to_half(fbeta), to_half(emissive)))
+
+    def gbuffer_pack(self, l, features, warped, gbuffers: dict, scale: int, history: bool, reset: bool, q_scale: float,
+                     q_zero_point: int, profile: str):
+        """gbuffer_pack_pass -> the int8 NPU input (1,h,w,C): [L, features, with ``history`` the warped
+        history (zero on a reset, when ``warped`` is not read and may be None), the HR ``gbuffers`` ({name: (H,W,C)} in ``passes.PACKED_GBUFFERS``
+        order, any subset)], HR images pixel-unshuffled (``ops.demodulation.pixel_unshuffle``), quantized as
+        ``ops.quant.quantize`` under ``profile``.  Depth is r32f (float32), the rest fp16."""
+        parts = [to_half(l)[..., :3], to_half(features)]
+        if history:
+            h, w = parts[0].shape[:2]
+            hr = np.zeros((h * scale, w * scale, 3), np.float32) if reset else to_half(np.asarray(warped)[..., :3])
+            parts.append(demodulation.pixel_unshuffle(hr, scale))
+        for name in (g for g in PACKED_GBUFFERS if g in gbuffers):
+            image = gbuffers[name]
+            stored = np.asarray(image, np.float32) if name == "depth" else to_half(image)
+            parts.append(demodulation.pixel_unshuffle(stored, scale))
+        return quant.quantize(np.concatenate(parts, axis=-1), q_scale, q_zero_point, "int8", profile)[None]
+
+    def remodulate(self, npu_output, fbeta, emissive, q_scale: float, q_zero_point: int, demodulate: bool):
+        """remodulate_pass: int8 (1,H,W,3) -> (history (H,W,3) fp16 values, display (H,W,3) uint8) of
+        ``ops.demodulation.remodulate`` (the dequantized output itself without demodulation)."""
+        v = quant.dequantize(np.asarray(npu_output)[0], q_scale, q_zero_point)
+        if demodulate:
+            v = demodulation.remodulate(v, to_half(fbeta), to_half(emissive))
+        return to_half(v), encode_unorm8(v)

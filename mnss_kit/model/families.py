@@ -7,9 +7,10 @@ family's folder.  Light at import (no torch): the records load their torch code 
 from __future__ import annotations
 
 from .family import Family
+from .fusesr import FUSESR_FAMILY
 from .mnss import MNSS_FAMILY
 
-FAMILIES: dict[str, Family] = {"mnss": MNSS_FAMILY}
+FAMILIES: dict[str, Family] = {"mnss": MNSS_FAMILY, "fusesr": FUSESR_FAMILY}
 
 
 def family_named(name: str) -> Family:

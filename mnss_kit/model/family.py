@@ -21,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from ..dataset.format import BUFFERS
+from ..dataset.format import BUFFERS, REQUIRED_BUFFERS
 
 
 @dataclass(frozen=True)
@@ -30,7 +30,7 @@ class Family:
     config: type  # dataclass of the ``model:`` section (its ``family`` field names the family)
     build: Callable[[Any], Any]  # config -> a freshly initialised torch model (imports torch when called)
     loss: Callable[[Any, Any], Any]  # (model config, train config) -> loss module with ``terms``
-    lr_inputs: tuple[str, ...]  # LR buffers a frame carries (``color``, ``depth``, ``motion``, ...)
+    lr_inputs: tuple[str, ...]  # LR buffers a frame carries (``color``, ``depth``, ``motion``; others as ``lr_<name>``)
     npu_stages: tuple[str, ...]  # stage names (``model.stages()``) traced into the int8 NPU graph
     gpu_plan: Callable[..., dict]  # (config, numpy state dict, lr_size, npu, profile) -> bundle GPU plan
     fixed_macs: Callable[[Any], dict[str, float]]  # config -> fixed-function MACs per HR pixel by stage
@@ -41,14 +41,25 @@ class Family:
     learned_prefixes: tuple[str, ...] = ()  # submodules whose convs ``randomise_convs`` fills
 
     def frame_channels(self) -> dict[str, int]:
-        """Channels of every per-frame image input: the LR buffers, then ``hr_<name>``."""
-        out = {name: len(BUFFERS["lr"][name].channels) for name in self.lr_inputs}
+        """Channels of every per-frame image input: the LR buffers (``lr_<name>`` beyond the
+        loader's base ones), then ``hr_<name>``."""
+        out = {self.lr_key(name): len(BUFFERS["lr"][name].channels) for name in self.lr_inputs}
         out.update({f"hr_{name}": len(BUFFERS["hr"][name].channels) for name in self.hr_inputs})
         return out
 
+    @staticmethod
+    def lr_key(name: str) -> str:
+        """The frame key of LR buffer ``name``: ``color`` for the base buffers, ``lr_fbeta`` for the others."""
+        return name if name in REQUIRED_BUFFERS["lr"] else f"lr_{name}"
+
+    @property
+    def lr_buffers(self) -> tuple[str, ...]:
+        """The optional LR G-buffers the loader must read for this family (beyond colour, depth, motion)."""
+        return tuple(name for name in self.lr_inputs if name not in REQUIRED_BUFFERS["lr"])
+
     def dataset_buffers(self) -> dict[str, tuple[str, ...]]:
         """The dataset buffers training and evaluation read, per resolution."""
-        return {"lr": self.lr_inputs, "hr": ("reference", *self.hr_inputs)}
+        return {"lr": tuple(dict.fromkeys((*REQUIRED_BUFFERS["lr"], *self.lr_inputs))), "hr": ("reference", *self.hr_inputs)}
 
 
 def example_frame(family: Family, h: int, w: int, scale: int, generator=None, still: bool = False) -> dict:

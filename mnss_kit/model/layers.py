@@ -11,6 +11,8 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 
+from ..ops.colour import TONEMAP_MAX
+from ..ops.demodulation import FBETA_EPSILON
 from ..ops.jitter import SUBPIXEL_BORDER_TOLERANCE
 from ..ops.sharpen import ENHANCE_BETA, unsharp_kernel
 
@@ -119,3 +121,32 @@ def unsharp(image: torch.Tensor, beta: float = ENHANCE_BETA) -> torch.Tensor:
     kernel = torch.from_numpy(unsharp_kernel(beta)).to(image).expand(c, 1, 3, 3)
     padded = F.pad(image, (1, 1, 1, 1), mode="replicate")
     return torch.clamp(F.conv2d(padded, kernel, groups=c), 0.0, 1.0)
+
+
+def to_display(linear: torch.Tensor) -> torch.Tensor:
+    """``ops.colour.to_display`` (exposure 1): Reinhard, then the sRGB encoding; values in [0, 1)."""
+    x = torch.clamp(linear, min=0.0)
+    t = x / (1.0 + x)
+    return torch.where(t <= 0.0031308, 12.92 * t, 1.055 * torch.pow(torch.clamp(t, min=0.0031308), 1.0 / 2.4) - 0.055)
+
+
+def from_display(display: torch.Tensor) -> torch.Tensor:
+    """``ops.colour.from_display`` (exposure 1): sRGB decoding, then inverse Reinhard; finite."""
+    d = torch.clamp(display, 0.0, 1.0)
+    t = torch.where(d <= 0.04045, d / 12.92, torch.pow((torch.clamp(d, min=0.04045) + 0.055) / 1.055, 2.4))
+    t = torch.clamp(t, max=TONEMAP_MAX)
+    return t / (1.0 - t)
+
+
+def demodulate(color: torch.Tensor, fbeta: torch.Tensor, emissive: torch.Tensor) -> torch.Tensor:
+    """``ops.demodulation.demodulate``: display-encoded L, 0 where F_beta < ``FBETA_EPSILON`` (never divided)."""
+    lit = torch.clamp(from_display(color) - emissive, min=0.0)
+    dark = fbeta < FBETA_EPSILON
+    return torch.where(dark, 0.0, to_display(lit / torch.clamp(fbeta, min=FBETA_EPSILON)))
+
+
+def remodulate(l: torch.Tensor, fbeta: torch.Tensor, emissive: torch.Tensor) -> torch.Tensor:
+    """``ops.demodulation.remodulate``: display colour of ``F_beta * L + emissive`` (emissive alone where
+    F_beta < ``FBETA_EPSILON``)."""
+    reflected = torch.where(fbeta < FBETA_EPSILON, 0.0, fbeta * from_display(l))
+    return to_display(reflected + emissive)

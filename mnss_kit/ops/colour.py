@@ -32,3 +32,15 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     """Rec. 709 luma weights over the last axis."""
     rgb = np.asarray(rgb, dtype=np.float32)
     return rgb[..., 0] * 0.2126 + rgb[..., 1] * 0.7152 + rgb[..., 2] * 0.0722
+
+
+# Largest tone-mapped value ``from_display`` inverts: Reinhard's x / (1 + x) reaches 1 only at
+# infinity, and an fp16 or 8-bit display value of 1.0 would otherwise decode to inf.
+TONEMAP_MAX = 0.999  # linear radiance 999
+
+
+def from_display(display: np.ndarray, exposure: float = 1.0) -> np.ndarray:
+    """Inverse of :func:`to_display`: display values -> linear HDR ``t / (1 - t)`` of the sRGB-decoded
+    value ``t`` clamped to ``[0, TONEMAP_MAX]``, divided by ``exposure``; float32, finite."""
+    t = np.minimum(srgb_decode(display), np.float32(TONEMAP_MAX))
+    return (t / (np.float32(1.0) - t) / np.float32(exposure)).astype(np.float32)

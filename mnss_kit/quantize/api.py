@@ -59,12 +59,12 @@ def quantize(request: QuantizeRequest):
         raise UserError(f"output directory {r.out} exists and is not empty (use --overwrite)")
     model, record = load(r.model)
     model.eval()
-    hr_buffers = family_of(model).hr_inputs
+    family = family_of(model)
     with tempfile.TemporaryDirectory(prefix="mnss-quantize-") as tmp:
         if r.eval_data:  # fail before the slow part
-            open_data(r.eval_data, model.scale, "evaluation", hr_buffers)
+            open_data(r.eval_data, model.scale, "evaluation", family)
         data = r.data if r.data else render_calibration_data(Path(tmp), progress=r.progress)
-        sequences = open_data(data, model.scale, hr_buffers=hr_buffers)
+        sequences = open_data(data, model.scale, family=family)
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", r.frames, data)
         samples = calibration_samples(model, sequences, r.frames, progress=r.progress)
         options = QuantizeOptions(method=r.method, int16=r.a16, qat_steps=r.qat)
@@ -95,15 +95,17 @@ def render_calibration_data(root: Path, progress: bool, with_reference: bool = T
     return root
 
 
-def open_data(root: Path, scale: int, role: str = "calibration", hr_buffers: tuple[str, ...] = ()):
-    """Sequences under ``root``, after checking their scale matches the model's; ``hr_buffers``:
-    the HR G-buffers the model's family reads (``Family.hr_inputs``)."""
+def open_data(root: Path, scale: int, role: str = "calibration", family=None):
+    """Sequences under ``root``, after checking their scale matches the model's, with the G-buffers
+    ``family`` (a ``model.family.Family``; None: the base buffers only) reads."""
     from ..dataset.loader import eval_sequences
     from ..errors import UserError
 
     if not root.is_dir():
         raise UserError(f"{role} data directory not found: {root}")
-    sequences = eval_sequences(root, hr_buffers=hr_buffers, progress=False)
+    sequences = eval_sequences(root, hr_buffers=family.hr_inputs if family else (),
+                               lr_buffers=family.lr_buffers if family else (), progress=False,
+                               needed_by=f"the {family.name} family" if family else "")
     if not sequences:
         raise UserError(f"no sequences under {root}")
     for seq in sequences:

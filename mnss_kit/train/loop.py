@@ -78,7 +78,7 @@ def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: 
     weights, initial = initial_weights(experiment.model, init) if init else (None, None)  # before any data work
     if world.is_main:
         ensure_data(cfg, experiment.data, progress)
-    windows, val_windows = _open_data(cfg, world, progress, family_of(experiment.model).hr_inputs)
+    windows, val_windows = _open_data(cfg, world, progress, family_of(experiment.model))
     if windows.scale != experiment.model.scale:
         raise UserError(f"training data is x{windows.scale} but the model is x{experiment.model.scale}")
 
@@ -240,16 +240,16 @@ def _set_lr(optimizer, cfg: TrainConfig, step: int) -> None:
         group["lr"] = lr
 
 
-def _open_data(cfg: TrainConfig, world, progress: bool, hr_buffers: tuple[str, ...]):
+def _open_data(cfg: TrainConfig, world, progress: bool, family):
     """Training windows (rank 0 builds the decoded cache, the others then open it) and rank 0's validation windows."""
     if world.is_main:
-        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, progress, hr_buffers)
+        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, progress, family)
     distributed.barrier(world)
     if not world.is_main:
-        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, False, hr_buffers)
+        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, False, family)
     val = None
     if world.is_main and cfg.val_dirs():
-        val = open_windows(cfg, cfg.val_dirs(), cfg.val_crop, progress, hr_buffers)
+        val = open_windows(cfg, cfg.val_dirs(), cfg.val_crop, progress, family)
     return windows, val
 
 

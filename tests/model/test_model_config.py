@@ -4,12 +4,13 @@ import pytest
 
 from mnss_kit.errors import UserError
 from mnss_kit.model.config import config_names, load_model_config
-from mnss_kit.model.mnss.config import MNSSConfig
+from mnss_kit.model.families import FAMILIES
 
 
 @pytest.mark.parametrize("name", config_names())
 def test_shipped_configs_load(name):
-    assert isinstance(load_model_config(name), MNSSConfig)
+    config = load_model_config(name)
+    assert isinstance(config, FAMILIES[config.family].config) and name.startswith(config.family)
 
 
 def test_ladder_exists():

@@ -68,7 +68,7 @@ def test_shipped_configs_load():
     assert "mnss_x2" in names
     for name in names:
         experiment, _ = load_experiment(name)
-        assert experiment.model.scale in (2, 3)
+        assert experiment.model.scale in (2, 3, 4)
 
 
 def test_cli_reports_bad_key_without_traceback(write_experiment, capsys):

@@ -13,7 +13,7 @@ import numpy as np
 
 from ...gpu import passes as P
 from ...gpu.plan import WEIGHTS_PREFIX, const as _const, pass_entries, per_frame as _frame, quantize_uniforms
-from ...gpu.plan import step, word_count
+from ...gpu.plan import step, warp_step, word_count
 from ...gpu.weights import Conv3x3, layers_of
 from .config import MNSSConfig, aa_input_channels
 from .gpu_stage import GpuStage
@@ -123,10 +123,7 @@ def schedule(stage: GpuStage, lr_size: tuple[int, int], npu: dict, profile: str)
     a = dict(lr_size=lr_size, scale=s)
     steps = []
     if stage.with_history:
-        steps.append(step("warp_pass", "warp", "warp", {
-            "history": "history", "prev_depth": "prev_depth", "motion": "motion", "warped": "warped", "warped_depth": "warped_depth",
-        }, {"u_scale": _const(s), "u_subpixel": _frame("subpixel"), "u_prev_jitter": _frame("previous_offset"),
-            "u_prev_subpixel": _frame("previous_subpixel")}, skip_on_reset=True, **a))
+        steps.append(warp_step("warp", "warp", **a))
         steps.append(step("inpaint_weights_pass", "inpaint weights", "inpaint", {
             "color": "color", "depth": "depth", "warped": "warped", "warped_depth": "warped_depth", "weights": WEIGHTS_PREFIX + "inpaint",
             "lr_weight": "lr_weight",

@@ -1,0 +1,212 @@
+"""Reduced FuseSR (Zhong et al., SIGGRAPH Asia 2023), mobile-sized, one frame at a time.
+
+Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``:
+
+    warp_history (gpu)  hybrid only: the previous output backward-warped by the upsampled motion
+                       (``layers.warp_bilinear``, MNSS's warp of the colour)
+    demodulate  (gpu)  L = (colour - emissive) / F_beta at LR in linear light, display-encoded;
+                       0 where F_beta is about zero (``ops.demodulation``); off: the colour itself
+    encode      (gpu)  LR encoder: one 3x3 conv + ReLU on L
+    unshuffle   (gpu)  the NPU input at LR: [L, encoder features, warped history unshuffled,
+                       HR G-buffers unshuffled] (``ops.demodulation.pixel_unshuffle`` order)
+    backbone    (npu)  fusion convs at LR, head conv, pixel shuffle, one 3x3 conv at HR, plus a
+                       learned 1x1 skip from the input (starts as the nearest upsample of L),
+                       clamped to [0, 1]: the HR L (display-encoded), or the colour
+    remodulate  (gpu)  output = display(F_beta_HR * L_HR + emissive_HR); off: the prediction
+
+State (hybrid): ``history`` (N,3,H,W), the previous output.  A reset frame sees a zero history.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from ...errors import UserError
+from ..layers import demodulate, jittered_upsample, remodulate, upsample_motion, warp_bilinear
+from .config import GBUFFER_CHANNELS, FuseSRConfig
+
+STAGE_ORDER = ("warp_history", "demodulate", "encode", "unshuffle", "backbone", "remodulate")
+LR_KEYS = {"color": 3, "motion": 2}
+DEMODULATION_KEYS = {"lr_fbeta": ("lr", 3), "lr_emissive": ("lr", 3), "hr_fbeta": ("hr", 3), "hr_emissive": ("hr", 3)}
+
+
+def conv(c_in: int, c_out: int, separable: bool) -> nn.Module:
+    """A 3x3 conv, or its depthwise-separable form (depthwise 3x3, then pointwise 1x1)."""
+    if not separable:
+        return nn.Conv2d(c_in, c_out, 3, padding=1)
+    return nn.Sequential(nn.Conv2d(c_in, c_in, 3, padding=1, groups=c_in), nn.Conv2d(c_in, c_out, 1))
+
+
+class Warp(nn.Module):
+    """The previous output warped to this frame with the upsampled motion (clamp-to-edge)."""
+
+    placement = "gpu"
+
+    def __init__(self, scale: int):
+        super().__init__()
+        self.scale = scale
+
+    def forward(self, history, motion):
+        """history (N,3,H,W), motion (N,2,h,w) LR pixels -> (N,3,H,W)."""
+        return warp_bilinear(history, upsample_motion(motion, self.scale))
+
+
+class Demodulate(nn.Module):
+    """Display-encoded L at LR (``layers.demodulate``)."""
+
+    placement = "gpu"
+
+    def forward(self, color, fbeta, emissive):
+        return demodulate(color, fbeta, emissive)
+
+
+class Encode(nn.Module):
+    """The LR encoder: 3x3 conv + ReLU (``conv3x3_pass`` on the phone)."""
+
+    placement = "gpu"
+
+    def __init__(self, width: int):
+        super().__init__()
+        self.conv = nn.Conv2d(3, width, 3, padding=1)
+        nn.init.kaiming_normal_(self.conv.weight, nonlinearity="relu")
+        nn.init.zeros_(self.conv.bias)
+
+    def forward(self, x):
+        return torch.relu(self.conv(x))
+
+
+class Unshuffle(nn.Module):
+    """The NPU input: LR image and features, then the HR images pixel-unshuffled to LR."""
+
+    placement = "gpu"
+
+    def __init__(self, scale: int):
+        super().__init__()
+        self.scale = scale
+
+    def forward(self, lr: list[torch.Tensor], hr: list[torch.Tensor]):
+        """``lr`` (N,C,h,w) tensors, ``hr`` (N,C,H,W) tensors -> (N, sum C_lr + s^2 sum C_hr, h, w)."""
+        return torch.cat([*lr, *(F.pixel_unshuffle(x, self.scale) for x in hr)], dim=1)
+
+
+class Backbone(nn.Module):
+    """The NPU part: Conv2d (bias, depthwise or not), ReLU, PixelShuffle, +, clamp; fx-traceable.
+
+    ``forward(x)``: ``x`` (N, C, h, w) the packed LR input (L in its first three channels);
+    returns (N, 3, H, W) in [0, 1].
+    """
+
+    placement = "npu"
+
+    def __init__(self, c_in: int, scale: int, width: int, layers: int, hr_channels: int, separable: bool):
+        super().__init__()
+        mods: list[nn.Module] = []
+        for i in range(layers):
+            mods += [conv(c_in if i == 0 else width, width, separable), nn.ReLU()]
+        mods += [conv(width, hr_channels * scale * scale, separable), nn.ReLU(), nn.PixelShuffle(scale)]  # ReLU commutes with the shuffle
+        self.body = nn.Sequential(*mods)
+        self.out = nn.Conv2d(hr_channels, 3, 3, padding=1)
+        nn.init.zeros_(self.out.weight)  # a fresh net is its skip: the nearest upsample of L
+        nn.init.zeros_(self.out.bias)
+        self.skip = nn.Conv2d(c_in, 3 * scale * scale, 1)
+        self.shuffle = nn.PixelShuffle(scale)
+        with torch.no_grad():
+            self.skip.weight.zero_()
+            self.skip.bias.zero_()
+            for c in range(3):  # pixel_shuffle reads output channel c from inputs c*s*s .. c*s*s + s*s - 1
+                self.skip.weight[c * scale * scale : (c + 1) * scale * scale, c] = 1.0
+
+    def forward(self, x):
+        return torch.clamp(self.out(self.body(x)) + self.shuffle(self.skip(x)), 0.0, 1.0)
+
+
+class Remodulate(nn.Module):
+    """display(F_beta_HR * L + emissive_HR) (``layers.remodulate``)."""
+
+    placement = "gpu"
+
+    def forward(self, l, fbeta, emissive):
+        return remodulate(l, fbeta, emissive)
+
+
+class FuseSR(nn.Module):
+    """``model(frame, state) -> (output, aux, state)``; see the module docstring and docs/architecture.md."""
+
+    def __init__(self, config: FuseSRConfig):
+        super().__init__()
+        self.config = config
+        self.scale = s = config.scale
+        d = config.divisor
+        encoder = config.encoder_width // d
+        self.warp_history = Warp(s) if config.history else None
+        self.demodulate = Demodulate() if config.demodulate else None
+        self.encode = Encode(encoder)
+        self.unshuffle = Unshuffle(s)
+        c_in = config.npu_input_channels() + encoder
+        self.backbone = Backbone(c_in, s, config.width // d, config.layers, config.hr_channels // d, config.variant == "l")
+        self.remodulate = Remodulate() if config.demodulate else None
+
+    def stages(self) -> list[tuple[str, nn.Module, str]]:
+        """``[(name, module, placement)]`` of the stages that run, in execution order."""
+        return [(n, getattr(self, n), getattr(self, n).placement) for n in STAGE_ORDER if getattr(self, n) is not None]
+
+    def required_inputs(self) -> dict[str, int]:
+        """Frame keys this model reads (besides ``jitter`` and ``reset``) and their channels."""
+        keys = dict(LR_KEYS)
+        if self.config.demodulate:
+            keys.update({k: c for k, (_, c) in DEMODULATION_KEYS.items()})
+        keys.update({f"hr_{g}": GBUFFER_CHANNELS[g] for g in self.config.ordered_gbuffers})
+        return keys
+
+    def initial_state(self, frame: dict) -> dict:
+        """Empty history for ``frame``'s batch: ``history`` (N,3,H,W) (an empty dict without history)."""
+        if not self.config.history:
+            return {}
+        n, _, h, w = frame["color"].shape
+        return {"history": frame["color"].new_zeros(n, 3, h * self.scale, w * self.scale)}
+
+    def forward(self, frame: dict, state: dict | None = None):
+        """One frame (keys of :meth:`required_inputs`, ``jitter`` (N,2), optional ``reset`` (N,)).
+
+        Returns output (N,3,H,W) display values, aux {upsampled (N,3,H,W) I_U (the validation
+        floor), prediction (N,3,H,W) the backbone's output, l (N,3,h,w) the backbone's LR image},
+        and the next state.
+        """
+        _check_frame(frame, self.required_inputs(), self.scale)
+        color, jitter = frame["color"], frame["jitter"]
+        n = color.shape[0]
+        x = self.demodulate(color, frame["lr_fbeta"], frame["lr_emissive"]) if self.demodulate is not None else color
+        hr = []
+        if self.warp_history is not None:
+            reset = frame.get("reset")
+            reset = color.new_zeros(n) if reset is None else reset.to(color)
+            if not state:
+                state, reset = self.initial_state(frame), color.new_ones(n)
+            cut = (reset > 0.5).view(n, 1, 1, 1)  # a cut history may hold anything, NaN included
+            hr.append(self.warp_history(torch.where(cut, 0.0, state["history"]), frame["motion"]))
+        hr += [frame[f"hr_{g}"] for g in self.config.ordered_gbuffers]
+        packed = self.unshuffle([x, self.encode(x)], hr)
+        prediction = self.backbone(packed)
+        if self.remodulate is not None:
+            output = self.remodulate(prediction, frame["hr_fbeta"], frame["hr_emissive"])
+        else:
+            output = prediction
+        aux = {"upsampled": jittered_upsample(color, jitter, self.scale), "prediction": prediction, "l": x}
+        return output, aux, ({"history": output} if self.config.history else {})
+
+
+def _check_frame(frame: dict, keys: dict[str, int], scale: int) -> None:
+    """A UserError naming the first missing or misshapen input (a missing dataset buffer by name)."""
+    for key in (*keys, "jitter"):
+        if key not in frame:
+            if key.startswith(("hr_", "lr_")):
+                res, buffer = key.split("_", 1)
+                raise UserError(f"a fusesr model needs the dataset buffer {res}/{buffer} (frame key '{key}'), which the data lacks")
+            raise UserError(f"model input lacks '{key}'")
+    n, _, h, w = frame["color"].shape
+    for key, channels in keys.items():
+        size = (h * scale, w * scale) if key.startswith("hr_") else (h, w)
+        if tuple(frame[key].shape) != (n, channels, *size):
+            raise UserError(f"model input '{key}' has shape {tuple(frame[key].shape)}, expected {(n, channels, *size)}")

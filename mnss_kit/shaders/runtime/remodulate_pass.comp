@@ -1,0 +1,46 @@
+#version 310 es
+// remodulate_pass: one invocation per HR texel.
+//   in   npu_output  std430 uint[]  int8 NHWC (1, H, W, 3) from the NPU: display-encoded HR L
+//        fbeta       HR rgba16f     F_beta
+//        emissive    HR rgba16f     emission and sky
+//   out  history     HR rgba16f     the output, the next frame's history (rgb; a = 1)
+//        display     HR rgba8       the output as 8-bit display codes
+// With u_demodulate = 0 the NPU output is the colour itself (no remodulation).
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+precision highp image2D;
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(std430, binding = 0) readonly buffer NpuOutput { uint npu_output[]; };
+layout(binding = 0) uniform highp sampler2D fbeta;
+layout(binding = 1) uniform highp sampler2D emissive;
+layout(rgba16f, binding = 0) uniform writeonly highp image2D history;
+layout(rgba8, binding = 1) uniform writeonly highp image2D display;
+
+uniform float u_q_scale;
+uniform int u_q_zero_point;
+uniform int u_demodulate;
+
+#include "common.glsl"
+#include "display.glsl"
+#include "demodulation.glsl"
+
+void main() {
+    ivec2 hr = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(history);
+    if (any(greaterThanEqual(hr, size))) {
+        return;
+    }
+    vec3 v;
+    for (int c = 0; c < NPU_CHANNELS; c++) {
+        int b = (hr.y * size.x + hr.x) * NPU_CHANNELS + c;
+        v[c] = dequantize_int8(int8_of_word(npu_output[b / 4], b % 4), u_q_scale, u_q_zero_point);
+    }
+    if (u_demodulate != 0) {
+        v = remodulate(v, texelFetch(fbeta, hr, 0).rgb, texelFetch(emissive, hr, 0).rgb);
+    }
+    imageStore(history, hr, round_to_half(vec4(v, 1.0)));
+    imageStore(display, hr, encode_unorm8(vec4(v, 1.0)));
+}
