@@ -59,30 +59,48 @@ def write_doc() -> None:
              "quality meets the targets. Here the targets are `within:0.3` (PSNR at most 0.3 dB below the largest "
              f"rung, `mnss_x2`) and `taau:0` (PSNR not below TAAU's on the same frames), the ladder is {', '.join(f'`{n}`' for n in LADDER)}, {STEPS} steps per rung, "
              "on two built-in scenes of clearly different complexity.", ""]
-    chosen = {}
+    docs = {}
     for scene, (train, test) in SCENES.items():
         path = RESULTS / scene / "size.json"
         if not path.is_file():
             lines += [f"## {scene}", "", f"Not run yet: `{scene}` has no `size.json`.", ""]
             continue
         doc = read_json(path)
-        chosen[scene] = (doc.get("choice") or {}).get("config")
+        docs[scene] = doc
         chart = write_chart(doc, CHARTS / f"{scene}.png", title=f"{scene}: ladder on {test} (held out)")
         lines += [f"## {scene}", "", f"Trained on {', '.join(train)}; judged on {test}.", "",
                   "Reproduce: `" + " ".join(_portable(size_command(scene, Path("data")))) + "`", "",
                   markdown(doc), f"![{scene} ladder](size/{chart.name})", ""]
-    if len(chosen) == len(SCENES):
-        lines += ["## What the ladder says", "", _verdict(chosen), ""]
+    if len(docs) == len(SCENES):
+        lines += ["## What the ladder says", "", _verdict(docs), ""]
     atomic_write_text(DOC, "\n".join(lines))
     print(f"wrote {DOC.relative_to(REPO)}")
 
 
-def _verdict(chosen: dict[str, str | None]) -> str:
-    parts = [f"{scene}: {name or 'no rung meets the target'}" for scene, name in chosen.items()]
-    same = len(set(chosen.values())) == 1
-    return ("Chosen per scene: " + "; ".join(parts) + ". "
-            + ("The two scenes chose the same size at this target and step count: the ladder did not separate them."
-               if same else "The scenes chose different sizes: each is given no more model than its frames need."))
+def _verdict(docs: dict[str, dict]) -> str:
+    """What the choices say, from the numbers: each scene's choice, or its best rung against TAAU."""
+    parts = []
+    for scene, doc in docs.items():
+        choice = (doc.get("choice") or {}).get("config")
+        rows = sorted(doc["rows"].values(), key=lambda r: r["macs_per_pixel"])
+        taau = doc["baselines"]["taau"]["psnr"]
+        if choice:
+            parts.append(f"{scene}: `{choice}` ({doc['rows'][choice]['psnr'] - taau:+.2f} dB against TAAU)")
+        else:
+            best = max(rows, key=lambda r: r["psnr"])
+            parts.append(f"{scene}: no rung of this ladder (best `{best['config']}` at {best['psnr'] - taau:+.2f} dB against TAAU)")
+    gaps = {scene: max(r["psnr"] for r in doc["rows"].values()) - min(r["psnr"] for r in doc["rows"].values())
+            for scene, doc in docs.items()}
+    spread = "; ".join(f"{scene} {gap:.2f} dB" for scene, gap in gaps.items())
+    choices = {(doc.get("choice") or {}).get("config") for doc in docs.values()}
+    verdict = ("The scenes chose differently." if len(choices) > 1 else "Both scenes chose the same size at these targets.")
+    from mnss_kit.size.select import choose, parse_target
+
+    relative = {scene: choose(list(doc["rows"].values()), [parse_target(TARGETS[0])])[0]["config"] for scene, doc in docs.items()}
+    alone = "; ".join(f"{scene} `{name}`" for scene, name in relative.items())
+    return (f"Chosen per scene: {'; '.join(parts)}. {verdict} Spread between the smallest and the largest rung: {spread}. "
+            f"`{TARGETS[0]}` alone would choose: {alone}. Where no rung meets `taau:0`, the scene needs more model or "
+            f"more training than this ladder gives at {STEPS} steps.")
 
 
 def _portable(argv: list[str]) -> list[str]:
