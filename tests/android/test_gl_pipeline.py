@@ -24,6 +24,21 @@ def test_app_frame_pipeline_reproduces_the_golden_frames_on_mesa(gl_classes, tin
     assert tensors == frames * (len(npu_step["inputs"]) + 1)  # every NPU input buffer and the output, every frame
 
 
+def test_app_frame_pipeline_runs_the_shipped_default_model_bit_exact(gl_classes, synthetic_dataset, tmp_path, capsys):
+    """The same check on a bundle of the shipped default model (mnss_x2, its trained weights) at 64x48."""
+    from mnss_kit.cli import main
+
+    bundle = tmp_path / "mnss_x2"
+    assert main(["export", "mnss_x2", "--out", str(bundle), "--resolution", "64x48", "--data", str(synthetic_dataset),
+                 "--no-progress"]) == 0
+    manifest = json.loads((bundle / "manifest.json").read_text())
+    tensors, values = run_gl_pipeline(gl_classes, bundle)
+    with capsys.disabled():
+        print(f"\nGL pipeline on the shipped {manifest['model']['id']}: {tensors} tensors, {values} values compared "
+              f"over {len(manifest['golden']['frames'])} golden frames")
+    assert tensors > 0 and values > 0
+
+
 def gles31_methods(text: str) -> set[str]:
     return set(re.findall(r"^    [\w\[\]]+ (gl\w+)\(", text, re.M))
 
