@@ -37,7 +37,6 @@ class SizeRequest:
     output_size: tuple[int, int] = (1280, 720)  # HR size of the device estimates
     max_frames: int | None = None  # per held-out sequence
     progress: bool = True
-    sequences: dict = field(default_factory=dict, init=False)
 
 
 def run_size(request: SizeRequest) -> dict:
@@ -133,37 +132,36 @@ def rung_experiment(name: str, train_seqs: list[Path], request: SizeRequest):
 
 def train_rung(name: str, train_seqs: list[Path], request: SizeRequest) -> Path:
     """``OUT/runs/<name>/model.pt``: trained now, resumed, or reused when trained with these settings."""
+    from ..model.checkpoint import read_record
     from ..train.loop import FINAL, LAST, train
 
     experiment = rung_experiment(name, train_seqs, request)
     run_dir = request.out / "runs" / name
-    final = run_dir / FINAL
-    if final.is_file() and _trained_as(final, experiment) and _finished(final):
-        log.info("reusing %s", final)
-        return final
-    if final.is_file() and not (run_dir / LAST).is_file() and _finished(final):
-        raise UserError(f"{final} was trained with other settings than this ladder's (remove it or choose another --out)")
-    resume = (run_dir / LAST).is_file()
-    if resume and not _trained_as(run_dir / LAST, experiment):
-        raise UserError(f"{run_dir / LAST} is a run with other settings than this ladder's (remove it or choose another --out)")
+    final, last = run_dir / FINAL, run_dir / LAST
+    if final.is_file():
+        record, _ = read_record(final)
+        if _finished(record) and _trained_as(record, experiment):
+            log.info("reusing %s", final)
+            return final
+        if _finished(record) and not last.is_file():
+            raise UserError(f"{final} was trained with other settings than this ladder's (remove it or choose another --out)")
+    resume = last.is_file()
+    if resume and not _trained_as(read_record(last)[0], experiment):
+        raise UserError(f"{last} is a run with other settings than this ladder's (remove it or choose another --out)")
     return train(experiment, run_dir, resume=resume, progress=request.progress)
 
 
-def _finished(checkpoint: Path) -> bool:
+def _finished(record: dict) -> bool:
     """Whether the run ended at its steps or its time cap (not by an interrupt, which ``--resume`` continues)."""
-    from ..model.checkpoint import read_record
-
-    return ((read_record(checkpoint)[0].get("training") or {}).get("stopped")) in ("completed", "time_budget")
+    return (record.get("training") or {}).get("stopped") in ("completed", "time_budget")
 
 
-def _trained_as(checkpoint: Path, experiment) -> bool:
-    """Whether ``checkpoint`` was trained on the same sequences for the same steps (a finished run
-    that stopped at its time cap counts as finished)."""
-    from ..model.checkpoint import read_record
-    from ..train.loop import BOOKKEEPING_KEYS
+def _trained_as(record: dict, experiment) -> bool:
+    """Whether a checkpoint ``record`` was trained on the same sequences for the same steps (a finished
+    run that stopped at its time cap counts as finished)."""
     from ..config import to_dict
+    from ..train.loop import BOOKKEEPING_KEYS
 
-    record, _ = read_record(checkpoint)
     saved, wanted = record.get("train") or {}, to_dict(experiment.train)
     same = all(saved.get(k) == v for k, v in wanted.items() if k not in BOOKKEEPING_KEYS)
     return same and record.get("config") == to_dict(experiment.model)
