@@ -131,6 +131,8 @@ def stress_section(doc: dict, root: Path, staging: Path) -> list[str]:
 
 def size_section(doc: dict, path: Path, staging: Path, rel: str) -> list[str]:
     """One ``mnss-kit size`` ladder: its rows, the baselines, the choice and its chart."""
+    from ..size.charts import verdict
+
     staging.mkdir(parents=True, exist_ok=True)
     chart = path.parent / "size.png"
     images = []
@@ -143,7 +145,7 @@ def size_section(doc: dict, path: Path, staging: Path, rel: str) -> list[str]:
     header += [f"<span class=estimate>{_e(d)} ms (estimate)</span>" for d in settings["devices"]] + ["verdict"]
     rows = [[_e(r["config"]), _num(r["macs_per_pixel"], 0), _e(r["params"]), _num(r["psnr"]), _num(r["ssim"], 4),
              _num(r["if_ssim"], 4), *[_num(r["device_ms"].get(d)) for d in settings["devices"]],
-             "<b>chosen</b>" if r["config"] == chosen else _e("; ".join(r.get("misses") or []) or "meets targets")]
+             f"<b>{_e(verdict(r, chosen))}</b>" if r["config"] == chosen else _e(verdict(r, chosen))]
             for r in sorted(doc["rows"].values(), key=lambda r: r["macs_per_pixel"])]
     rows += [[_e(f"{name} (baseline)"), "0", "0", _num(q["psnr"]), _num(q["ssim"], 4), _num(q["if_ssim"], 4),
               *["-" for _ in settings["devices"]], "reference"] for name, q in doc["baselines"].items()]

@@ -8,6 +8,13 @@ from pathlib import Path
 from ..fileio import atomic_output_path
 
 
+def verdict(row: dict, chosen: str | None) -> str:
+    """``chosen``, ``meets targets`` or the reasons the rung was passed over (the table and the report)."""
+    if row["config"] == chosen:
+        return "chosen"
+    return "; ".join(row.get("misses") or []) or "meets targets"
+
+
 def markdown(doc: dict) -> str:
     rows = sorted(doc["rows"].values(), key=lambda r: r["macs_per_pixel"])
     devices = doc["settings"]["devices"]
@@ -15,11 +22,12 @@ def markdown(doc: dict) -> str:
     head = ["config", "MACs/px", "params", "PSNR", "SSIM", "IF-SSIM", *[f"{d} ms (est.)" for d in devices], "steps", "verdict"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
-        verdict = "**chosen**" if r["config"] == chosen else ("meets targets" if not r.get("misses") else "; ".join(r["misses"]))
+        text = verdict(r, chosen)
+        text = f"**{text}**" if r["config"] == chosen else text
         steps = f"{r['steps']}" + (" (time cap)" if r.get("stopped") == "time_budget" else "")
         ms = [f"{r['device_ms'][d]:.2f}" if r["device_ms"].get(d) is not None else "-" for d in devices]
         lines.append(f"| {r['config']} | {r['macs_per_pixel']:.0f} | {r['params']} | {r['psnr']:.2f} | {r['ssim']:.4f} | "
-                     f"{r['if_ssim']:.4f} | " + " | ".join(ms) + f" | {steps} | {verdict} |")
+                     f"{r['if_ssim']:.4f} | " + " | ".join(ms) + f" | {steps} | {text} |")
     for name, q in doc["baselines"].items():
         lines.append(f"| {name} (baseline) | 0 | 0 | {q['psnr']:.2f} | {q['ssim']:.4f} | {q['if_ssim']:.4f} | "
                      + " | ".join("-" for _ in devices) + " | - | reference |")
