@@ -45,6 +45,7 @@ class Report:
     sequences: int = 0
     frames: int = 0
     files: int = 0
+    lacking: dict[str, int] = field(default_factory=dict)  # family -> sequences lacking a buffer it reads
 
     def error(self, where, message: str) -> None:
         self.problems.append(Problem("error", str(where), message))
@@ -65,8 +66,12 @@ class Report:
         return f"{self.sequences} sequence(s), {self.frames} frames, {self.files} files checked: {counts}"
 
 
-def check_dataset(root: str | Path, quick: bool = False, progress: bool = True) -> Report:
-    """Check every sequence under ``root`` (a dataset or one sequence); never raises for bad data."""
+def check_dataset(root: str | Path, quick: bool = False, progress: bool = True, families: tuple[str, ...] = ()) -> Report:
+    """Check every sequence under ``root`` (a dataset or one sequence); never raises for bad data.
+
+    ``families``: model families the data must serve; a buffer one of them reads that a sequence
+    lacks is an error (without them, ``Report.lacking`` only counts such sequences per family).
+    """
     root = Path(root)
     seqs = find_sequences(root)
     base = root.parent if (root / META_FILE).is_file() else root
@@ -75,13 +80,21 @@ def check_dataset(root: str | Path, quick: bool = False, progress: bool = True) 
 
     with tqdm(desc="checking", unit="file", disable=None if progress else True) as bar:
         for seq in seqs:
-            SequenceChecker(seq, base, report, quick, on_file=lambda: bar.update(1)).run()
+            SequenceChecker(seq, base, report, quick, on_file=lambda: bar.update(1), families=families).run()
     return report
 
 
+def missing_family_buffers(meta: SequenceMeta, family_name: str) -> list[str]:
+    """``res/name`` of each dataset buffer family ``family_name`` reads that ``meta`` does not list."""
+    from ..model.families import family_named
+
+    needed = family_named(family_name).dataset_buffers()
+    return [f"{res}/{name}" for res, names in needed.items() for name in names if name not in meta.buffers.get(res, [])]
+
+
 class SequenceChecker:
-    def __init__(self, seq: Path, base: Path, report: Report, quick: bool, on_file=None):
-        self.seq, self.base, self.report, self.quick = seq, base, report, quick
+    def __init__(self, seq: Path, base: Path, report: Report, quick: bool, on_file=None, families: tuple[str, ...] = ()):
+        self.seq, self.base, self.report, self.quick, self.families = seq, base, report, quick, families
         self.on_file = on_file or (lambda: None)
         self.meta: SequenceMeta | None = None
 
@@ -99,6 +112,7 @@ class SequenceChecker:
         self.report.frames += self.meta.frame_count
         if not self.check_meta(self.rel(meta_path)):
             return
+        self.check_family_buffers(self.rel(meta_path))
         for res, buffer in self.buffers():
             self.check_buffer_files(res, buffer)
         self.check_unlisted_dirs()
@@ -143,6 +157,18 @@ class SequenceChecker:
             warn(where, "frame 0 has reset false; a sequence's first frame has no history (the loader resets it anyway)")
         self.check_jitter_values(where)
         return ok
+
+    def check_family_buffers(self, where: str) -> None:
+        from ..model.families import FAMILIES
+
+        for name in FAMILIES:
+            missing = missing_family_buffers(self.meta, name)
+            if not missing:
+                continue
+            self.report.lacking[name] = self.report.lacking.get(name, 0) + 1
+            if name in self.families:
+                self.report.error(where, f"the {name} family reads {', '.join(missing)}, which this sequence lacks "
+                                  "(docs/dataset.md lists each family's buffers and how to export them)")
 
     def check_jitter_values(self, where: str) -> None:
         m = self.meta

@@ -21,6 +21,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("dir", type=Path, help="dataset directory or one sequence directory")
     p.add_argument("--quick", action="store_true", help="check only meta.json, file presence, EXR headers and sizes")
     p.add_argument("--max-lines", type=int, default=40, metavar="N", help="print at most N problems (default 40)")
+    p.add_argument("--family", action="append", default=[], choices=family_names(), metavar="NAME",
+                   help=f"a model family the data must serve ({', '.join(family_names())}): a buffer it reads that a "
+                   "sequence lacks is an error (repeatable)")
     p = sub.add_parser("info", help="print sizes, frames, scale and buffers of each sequence")
     p.add_argument("dir", type=Path, help="dataset directory or one sequence directory")
     p = sub.add_parser("cache", help="decode every buffer once into the training cache")
@@ -53,6 +56,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 IMPORT_FORMATS = ("nss", "images")
 
 
+def family_names() -> tuple[str, ...]:
+    from ..model.families import FAMILIES
+
+    return tuple(FAMILIES)
+
+
 def run(args: argparse.Namespace) -> int:
     return {"check": run_check, "info": run_info, "cache": run_cache, "import": run_import,
             "variant": run_variant}[args.data_command](args)
@@ -72,13 +81,16 @@ def run_variant(args: argparse.Namespace) -> int:
 def run_check(args: argparse.Namespace) -> int:
     from .check import check_dataset
 
-    report = check_dataset(args.dir, quick=args.quick)
+    report = check_dataset(args.dir, quick=args.quick, families=tuple(args.family))
     ordered = report.errors + report.warnings
     for problem in ordered[: max(args.max_lines, 0)]:
         print(problem.line())
     hidden = len(ordered) - max(args.max_lines, 0)
     if hidden > 0:
         print(f"... and {hidden} more problem(s) (--max-lines to show more)")
+    for family, count in report.lacking.items():
+        if family not in args.family and not report.errors:  # which models the sound data can train
+            print(f"note: {count} sequence(s) lack buffers the {family} family reads (--family {family} lists them)")
     mode = "quick check" if args.quick else "check"
     verdict = "FAILED" if report.errors else "OK"
     print(f"data {mode} {verdict}: {report.summary()}")

@@ -94,7 +94,17 @@ BROKEN = {
 def test_clean_dataset_passes(capsys, synthetic_dataset):
     code, out = run(capsys, "check", synthetic_dataset)
     assert code == 0
-    assert out == [out[-1]] and out[-1].startswith("data check OK: 2 sequence(s), 16 frames, 96 files checked: 0 error(s), 0 warning(s)")
+    assert out[-1].startswith("data check OK: 2 sequence(s), 16 frames, 96 files checked: 0 error(s), 0 warning(s)")
+    assert out[:-1] == ["note: 2 sequence(s) lack buffers the fusesr family reads (--family fusesr lists them)"]
+
+
+def test_family_names_the_buffers_it_lacks(capsys, synthetic_dataset):
+    code, out = run(capsys, "check", "--quick", synthetic_dataset, "--family", "mnss")
+    assert code == 0 and len(out) == 2  # the fusesr note, then OK
+    code, out = run(capsys, "check", "--quick", synthetic_dataset, "--family", "fusesr")
+    assert code == 1 and out[-1].startswith("data quick check FAILED: 2 sequence(s)")
+    assert re.fullmatch(r"error: pan(_cut)?/meta\.json: the fusesr family reads lr/fbeta, lr/emissive, hr/fbeta, "
+                        r"hr/emissive, hr/normal, hr/albedo, which this sequence lacks \(docs/dataset\.md .*\)", out[0])
 
 
 @pytest.mark.parametrize("name", BROKEN)
