@@ -104,8 +104,8 @@ def _gbuffer_pack(p, c: Call):
 
 
 def _remodulate(p, c: Call):
-    history, display = p.remodulate(c.read["npu_output"], c.read["fbeta"], c.read["emissive"], c.u("u_q_scale"),
-                                    c.u("u_q_zero_point"), bool(c.u("u_demodulate")))
+    history, display = p.remodulate(c.read["npu_output"], c.read["l"], c.read["fbeta"], c.read["emissive"], c.u("u_scale"),
+                                    c.u("u_q_scale"), c.u("u_q_zero_point"), bool(c.u("u_demodulate")))
     return {"history": history, "display": display}
 
 

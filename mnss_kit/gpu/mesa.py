@@ -336,14 +336,15 @@ class MesaPasses:
         return np.frombuffer(out.read(), dtype=np.int8)[:nbytes].reshape(1, h, w, channels).copy()
 
     @_in_own_context
-    def remodulate(self, npu_output, fbeta, emissive, q_scale: float, q_zero_point: int, demodulate: bool):
+    def remodulate(self, npu_output, l, fbeta, emissive, scale: int, q_scale: float, q_zero_point: int, demodulate: bool):
         _, hh, hw, _ = npu_output.shape
         raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
         raw += b"\0" * (-len(raw) % 4)
         history, display = self.empty((hw, hh), "rgba16f"), self.empty((hw, hh), "rgba8")
-        res = {"npu_output": self.ctx.buffer(raw), "history": history, "display": display,
+        res = {"npu_output": self.ctx.buffer(raw), "history": history, "display": display, "l": self.texture_array(l),
                "fbeta": self.texture(fbeta, "rgba16f") if demodulate else self._placeholder(),
                "emissive": self.texture(emissive, "rgba16f") if demodulate else self._placeholder()}
-        uni = {"u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point), "u_demodulate": int(demodulate)}
+        uni = {"u_scale": scale, "u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point),
+               "u_demodulate": int(demodulate)}
         self.run("remodulate_pass", (hw, hh), res, uni)
         return self.read(history, "rgba16f", 3), self.read(display, "rgba8", 3)

@@ -46,6 +46,9 @@ class Pass:
     #            output layer) or "words" (32-bit word of the NPU tensor)
     bindings: tuple[Binding, ...]
     uniforms: tuple[str, ...]
+    # bit for bit the numpy reference on an IEEE float32 GPU; False: a float path through the
+    # driver's pow() (BRDF demodulation), within one code of it
+    exact: bool = True
 
     @property
     def entry(self) -> str:
@@ -121,6 +124,7 @@ PASSES = {
             (_s("color", 0, "rgba16f"), _s("fbeta", 1, "rgba16f"), _s("emissive", 2, "rgba16f"),
              _i("l", 0, "rgba16f", array=True)),
             ("u_demodulate",),
+            exact=False,
         ),
         Pass(
             "gbuffer_pack_pass", (64, 1, 1), "words",
@@ -133,8 +137,9 @@ PASSES = {
         Pass(
             "remodulate_pass", (8, 8, 1), "hr",
             (_b("npu_output", 0, "uint[]"), _s("fbeta", 0, "rgba16f"), _s("emissive", 1, "rgba16f"),
-             _i("history", 0, HISTORY_FORMAT), _i("display", 1, DISPLAY_FORMAT)),
-            ("u_q_scale", "u_q_zero_point", "u_demodulate"),
+             _s("l", 2, "rgba16f", array=True), _i("history", 0, HISTORY_FORMAT), _i("display", 1, DISPLAY_FORMAT)),
+            ("u_scale", "u_q_scale", "u_q_zero_point", "u_demodulate"),
+            exact=False,
         ),
     )
 }

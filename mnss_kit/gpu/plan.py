@@ -85,6 +85,7 @@ def pass_entries(used: set[str]) -> list[dict]:
             "grid": spec.grid,
             "bindings": [{"name": b.name, "kind": b.kind, "unit": b.unit, "format": b.format, "array": b.array} for b in spec.bindings],
             "uniforms": list(spec.uniforms),
+            "exact": spec.exact,
         })
     return out
 

@@ -138,10 +138,12 @@ class ReferencePasses:
             parts.append(demodulation.pixel_unshuffle(stored, scale))
         return quant.quantize(np.concatenate(parts, axis=-1), q_scale, q_zero_point, "int8", profile)[None]
 
-    def remodulate(self, npu_output, fbeta, emissive, q_scale: float, q_zero_point: int, demodulate: bool):
-        """remodulate_pass: int8 (1,H,W,3) -> (history (H,W,3) fp16 values, display (H,W,3) uint8) of
-        ``ops.demodulation.remodulate`` (the dequantized output itself without demodulation)."""
+    def remodulate(self, npu_output, l, fbeta, emissive, scale: int, q_scale: float, q_zero_point: int, demodulate: bool):
+        """remodulate_pass: int8 residual (1,H,W,3) and LR L (h,w,3) -> (history (H,W,3) fp16 values,
+        display (H,W,3) uint8): ``ops.demodulation.add_upsampled``, then ``remodulate`` (the HR L itself
+        without demodulation)."""
         v = quant.dequantize(np.asarray(npu_output)[0], q_scale, q_zero_point)
+        v = demodulation.add_upsampled(v, to_half(np.asarray(l)[..., :3]), scale)
         if demodulate:
             v = demodulation.remodulate(v, to_half(fbeta), to_half(emissive))
         return to_half(v), encode_unorm8(v)

@@ -145,6 +145,12 @@ def demodulate(color: torch.Tensor, fbeta: torch.Tensor, emissive: torch.Tensor)
     return torch.where(dark, 0.0, to_display(lit / torch.clamp(fbeta, min=FBETA_EPSILON)))
 
 
+def add_upsampled(residual: torch.Tensor, l: torch.Tensor, scale: int) -> torch.Tensor:
+    """``ops.demodulation.add_upsampled``: clamp(nearest upsample of LR ``l`` + HR ``residual``, 0, 1) (NCHW)."""
+    up = l.repeat_interleave(scale, dim=2).repeat_interleave(scale, dim=3)
+    return torch.clamp(up + residual, 0.0, 1.0)
+
+
 def remodulate(l: torch.Tensor, fbeta: torch.Tensor, emissive: torch.Tensor) -> torch.Tensor:
     """``ops.demodulation.remodulate``: display colour of ``F_beta * L + emissive`` (emissive alone where
     F_beta < ``FBETA_EPSILON``)."""

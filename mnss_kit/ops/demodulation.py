@@ -11,7 +11,12 @@ emissive buffer (which holds the sky radiance).  Colours cross this module as di
 as well, so the network sees values in [0, 1) and the NPU tensors have a fixed range::
 
     demodulate(colour, F_beta, E)    = to_display(max(from_display(colour) - E, 0) / F_beta)
+    add_upsampled(r, l, s)           = clamp(nearest_upsample(l, s) + r, 0, 1): the HR L from the NPU's residual
     remodulate(l, F_beta, E)         = to_display(F_beta * from_display(l) + E), E alone where F_beta < eps
+
+The NPU predicts only the residual over the nearest upsample of its LR L: an identity folded
+into its int8 skip conv would set that conv's per-channel weight scale to 1/127 and round
+every learned weight beside it to that step.
 
 The torch versions (``model.layers``) and the GLSL passes (``demodulate.glsl``,
 ``remodulate.glsl``) follow these functions; arrays are ``(..., 3)`` float32.
@@ -41,6 +46,12 @@ def remodulate(l: np.ndarray, fbeta: np.ndarray, emissive: np.ndarray) -> np.nda
     reflected = np.where(fbeta >= np.float32(FBETA_EPSILON), fbeta * from_display(l), np.float32(0))
     linear = reflected + np.asarray(emissive, np.float32)
     return to_display(np.maximum(linear, np.float32(0)))
+
+
+def add_upsampled(residual: np.ndarray, l: np.ndarray, scale: int) -> np.ndarray:
+    """HR residual ``(H, W, 3)`` plus the nearest upsample of LR ``l`` ``(H/s, W/s, 3)``, clamped to [0, 1]."""
+    up = np.repeat(np.repeat(np.asarray(l, np.float32), scale, axis=0), scale, axis=1)
+    return np.clip(up + np.asarray(residual, np.float32), np.float32(0), np.float32(1))
 
 
 def pixel_unshuffle(image: np.ndarray, scale: int) -> np.ndarray:

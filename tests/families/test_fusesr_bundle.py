@@ -13,7 +13,7 @@ from mnss_kit.gpu.reference import ReferencePasses, encode_unorm8
 from mnss_kit.model.families import FAMILIES, build_model, randomise_convs
 from mnss_kit.model.family import example_frame
 from mnss_kit.model.fusesr.config import FuseSRConfig
-from mnss_kit.model.layers import remodulate
+from mnss_kit.model.layers import add_upsampled, remodulate
 from mnss_kit.ops import quant
 
 H, W = 6, 8
@@ -69,7 +69,9 @@ def test_schedule_packs_and_remodulates_as_the_torch_model(name):
         # fp16 storage of L and of the encoder features moves a code at most one step
         assert np.abs(got.astype(int) - want.astype(int)).max() <= 1, f"frame {t}"
         assert (got != want).mean() < 0.05, f"frame {t}"
-        prediction = torch.from_numpy(quant.dequantize(npu_output[0], *OUT_Q)).permute(2, 0, 1)[None]
+        residual = torch.from_numpy(quant.dequantize(npu_output[0], *OUT_Q)).permute(2, 0, 1)[None]
+        l = torch.from_numpy(np.asarray(runner.values["l"], np.float32)[..., :3]).permute(2, 0, 1)[None]  # the GPU's L
+        prediction = add_upsampled(residual, l, config.scale)
         if config.demodulate:
             prediction = remodulate(prediction, frame["hr_fbeta"], frame["hr_emissive"])
         assert np.abs(runner.values["display"].astype(int) - encode_unorm8(hwc(prediction)).astype(int)).max() <= 1

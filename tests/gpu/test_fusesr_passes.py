@@ -81,15 +81,29 @@ def test_gbuffer_pack_layout_is_pixel_unshuffle(ref, scale):
     assert code == np.clip(np.rint(depth[scale * i + dy, scale * j + dx, 0] * 255) - 128, -128, 127)
 
 
-@pytest.mark.parametrize("demodulate", [True, False])
-def test_remodulate_matches_reference(mesa, ref, demodulate):
-    scale = 2
+@pytest.mark.parametrize("demodulate,scale", [(True, 2), (False, 2), (True, 3)])
+def test_remodulate_matches_reference(mesa, ref, demodulate, scale):
     _, f, e = materials(np.random.default_rng(3), H * scale, W * scale)
+    l = np.random.default_rng(5).uniform(0, 1, (H, W, 3)).astype(np.float32)
     npu_output = np.random.default_rng(4).integers(-128, 128, (1, H * scale, W * scale, 3)).astype(np.int8)
-    args = (npu_output, f, e, *Q, demodulate)
+    args = (npu_output, l, f, e, scale, 1.0 / 255.0, 0, demodulate)  # a residual in [-0.5, 0.5]
     (history, display), (want_history, want_display) = mesa.remodulate(*args), ref.remodulate(*args)
     assert_float_close(history, want_history)
     assert np.abs(display.astype(int) - want_display.astype(int)).max() <= 1
     sky = f < demodulation.FBETA_EPSILON
     if demodulate:  # F_beta 0: the emissive buffer, whatever the NPU said
         assert np.allclose(want_history[sky], colour.to_display(e)[sky], atol=2e-3)
+
+
+def test_add_upsampled_torch_is_the_reference():
+    import torch
+
+    from mnss_kit.model.layers import add_upsampled
+
+    rng = np.random.default_rng(6)
+    l, residual = rng.uniform(0, 1, (H, W, 3)).astype(np.float32), rng.uniform(-0.6, 0.6, (3 * H, 3 * W, 3)).astype(np.float32)
+    want = demodulation.add_upsampled(residual, l, 3)
+    assert want.min() == 0.0 and want.max() == 1.0  # both clamps are exercised
+    got = add_upsampled(torch.from_numpy(residual).permute(2, 0, 1)[None], torch.from_numpy(l).permute(2, 0, 1)[None], 3)
+    np.testing.assert_array_equal(got[0].permute(1, 2, 0).numpy(), want)
+    assert np.array_equal(want[4, 5], np.clip(l[1, 1] + residual[4, 5], 0, 1))  # HR (4, 5) reads LR (1, 1)

@@ -124,10 +124,10 @@ def schedule(config: FuseSRConfig, encoder: Conv3x3, lr_size: tuple[int, int], n
     steps.append({"kind": "npu", "label": "backbone", "stage": "backbone", "model": npu["model"],
                   "inputs": {npu["input"]: "npu_input"}, "outputs": {npu["output"]: "npu_output"}})
     out_scale, out_zp = npu["output_q"]
-    steps.append(step("remodulate_pass", "remodulate", "remodulate" if demodulate else "backbone", {
-        "npu_output": "npu_output", "fbeta": "hr_fbeta" if demodulate else "unused",
+    steps.append(step("remodulate_pass", "remodulate", "remodulate", {
+        "npu_output": "npu_output", "l": "l", "fbeta": "hr_fbeta" if demodulate else "unused",
         "emissive": "hr_emissive" if demodulate else "unused", "history": "history" if config.history else "image",
-        "display": "display"}, {"u_q_scale": const(float(np.float32(out_scale))), "u_q_zero_point": const(int(out_zp)),
+        "display": "display"}, {"u_scale": const(s), "u_q_scale": const(float(np.float32(out_scale))), "u_q_zero_point": const(int(out_zp)),
                                 "u_demodulate": const(demodulate)}, **a))
     return {
         "steps": steps,

@@ -10,9 +10,10 @@ Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``:
     unshuffle   (gpu)  the NPU input at LR: [L, encoder features, warped history unshuffled,
                        HR G-buffers unshuffled] (``ops.demodulation.pixel_unshuffle`` order)
     backbone    (npu)  fusion convs at LR, head conv, pixel shuffle, one 3x3 conv at HR, plus a
-                       learned 1x1 skip from the input (starts as the nearest upsample of L),
-                       clamped to [0, 1]: the HR L (display-encoded), or the colour
-    remodulate  (gpu)  output = display(F_beta_HR * L_HR + emissive_HR); off: the prediction
+                       learned 1x1 skip from the input: the HR residual over the nearest upsample
+                       of L (a fresh net predicts 0)
+    remodulate  (gpu)  L_HR = clamp(nearest upsample of L + residual, 0, 1) (``layers.add_upsampled``),
+                       output = display(F_beta_HR * L_HR + emissive_HR); off: L_HR is the colour
 
 State (hybrid): ``history`` (N,3,H,W), the previous output.  A reset frame sees a zero history.
 """
@@ -24,7 +25,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from ...errors import UserError
-from ..layers import demodulate, jittered_upsample, remodulate, upsample_motion, warp_bilinear
+from ..layers import add_upsampled, demodulate, jittered_upsample, remodulate, upsample_motion, warp_bilinear
 from .config import GBUFFER_CHANNELS, FuseSRConfig
 
 STAGE_ORDER = ("warp_history", "demodulate", "encode", "unshuffle", "backbone", "remodulate")
@@ -92,10 +93,12 @@ class Unshuffle(nn.Module):
 
 
 class Backbone(nn.Module):
-    """The NPU part: Conv2d (bias, depthwise or not), ReLU, PixelShuffle, +, clamp; fx-traceable.
+    """The NPU part: Conv2d (bias, depthwise or not), ReLU, PixelShuffle, +; fx-traceable.
 
-    ``forward(x)``: ``x`` (N, C, h, w) the packed LR input (L in its first three channels);
-    returns (N, 3, H, W) in [0, 1].
+    ``forward(x)``: ``x`` (N, C, h, w) the packed LR input; returns the (N, 3, H, W) residual
+    that :class:`Remodulate` adds to the nearest upsample of L.  No identity sits in the skip
+    conv: its int8 per-channel weight scale would be 1/127 and every small learned weight beside
+    it would round to that step (ops.demodulation).
     """
 
     placement = "npu"
@@ -108,27 +111,31 @@ class Backbone(nn.Module):
         mods += [conv(width, hr_channels * scale * scale, separable), nn.ReLU(), nn.PixelShuffle(scale)]  # ReLU commutes with the shuffle
         self.body = nn.Sequential(*mods)
         self.out = nn.Conv2d(hr_channels, 3, 3, padding=1)
-        nn.init.zeros_(self.out.weight)  # a fresh net is its skip: the nearest upsample of L
+        nn.init.zeros_(self.out.weight)  # a fresh net predicts no residual: the nearest upsample of L
         nn.init.zeros_(self.out.bias)
         self.skip = nn.Conv2d(c_in, 3 * scale * scale, 1)
+        nn.init.zeros_(self.skip.weight)
+        nn.init.zeros_(self.skip.bias)
         self.shuffle = nn.PixelShuffle(scale)
-        with torch.no_grad():
-            self.skip.weight.zero_()
-            self.skip.bias.zero_()
-            for c in range(3):  # pixel_shuffle reads output channel c from inputs c*s*s .. c*s*s + s*s - 1
-                self.skip.weight[c * scale * scale : (c + 1) * scale * scale, c] = 1.0
 
     def forward(self, x):
-        return torch.clamp(self.out(self.body(x)) + self.shuffle(self.skip(x)), 0.0, 1.0)
+        return self.out(self.body(x)) + self.shuffle(self.skip(x))
 
 
 class Remodulate(nn.Module):
-    """display(F_beta_HR * L + emissive_HR) (``layers.remodulate``)."""
+    """The HR L (``layers.add_upsampled``), then display(F_beta_HR * L + emissive_HR) (``layers.remodulate``);
+    without demodulation the HR L is the output."""
 
     placement = "gpu"
 
-    def forward(self, l, fbeta, emissive):
-        return remodulate(l, fbeta, emissive)
+    def __init__(self, scale: int, demodulate: bool):
+        super().__init__()
+        self.scale, self.demodulate = scale, demodulate
+
+    def forward(self, residual, l, fbeta=None, emissive=None):
+        """Returns (output, the HR L)."""
+        l_hr = add_upsampled(residual, l, self.scale)
+        return (remodulate(l_hr, fbeta, emissive) if self.demodulate else l_hr), l_hr
 
 
 class FuseSR(nn.Module):
@@ -146,7 +153,7 @@ class FuseSR(nn.Module):
         self.unshuffle = Unshuffle(s)
         c_in = config.npu_input_channels() + encoder
         self.backbone = Backbone(c_in, s, config.width // d, config.layers, config.hr_channels // d, config.variant == "l")
-        self.remodulate = Remodulate() if config.demodulate else None
+        self.remodulate = Remodulate(s, config.demodulate)
 
     def stages(self) -> list[tuple[str, nn.Module, str]]:
         """``[(name, module, placement)]`` of the stages that run, in execution order."""
@@ -171,7 +178,8 @@ class FuseSR(nn.Module):
         """One frame (keys of :meth:`required_inputs`, ``jitter`` (N,2), optional ``reset`` (N,)).
 
         Returns output (N,3,H,W) display values, aux {upsampled (N,3,H,W) I_U (the validation
-        floor), prediction (N,3,H,W) the backbone's output, l (N,3,h,w) the backbone's LR image},
+        floor), prediction (N,3,H,W) the HR L (the backbone's residual over the upsampled L), l (N,3,h,w)
+        the LR L},
         and the next state.
         """
         _check_frame(frame, self.required_inputs(), self.scale)
@@ -188,11 +196,9 @@ class FuseSR(nn.Module):
             hr.append(self.warp_history(torch.where(cut, 0.0, state["history"]), frame["motion"]))
         hr += [frame[f"hr_{g}"] for g in self.config.ordered_gbuffers]
         packed = self.unshuffle([x, self.encode(x)], hr)
-        prediction = self.backbone(packed)
-        if self.remodulate is not None:
-            output = self.remodulate(prediction, frame["hr_fbeta"], frame["hr_emissive"])
-        else:
-            output = prediction
+        residual = self.backbone(packed)
+        fbeta, emissive = (frame["hr_fbeta"], frame["hr_emissive"]) if self.config.demodulate else (None, None)
+        output, prediction = self.remodulate(residual, x, fbeta, emissive)
         aux = {"upsampled": jittered_upsample(color, jitter, self.scale), "prediction": prediction, "l": x}
         return output, aux, ({"history": output} if self.config.history else {})
 

@@ -60,6 +60,8 @@ public final class GpuSection {
         public final String grid;
         public final Map<String, Binding> bindings;
         public final List<String> uniforms;
+        /** Bit for bit the reference on an IEEE float32 GPU; false: a float path through pow(), within one code. */
+        public final boolean exact;
 
         Pass(Json j) {
             name = j.get("name").asString();
@@ -76,6 +78,8 @@ public final class GpuSection {
             }
             bindings = Collections.unmodifiableMap(map);
             uniforms = j.get("uniforms").asStringList();
+            Json e = j.opt("exact");
+            exact = e == null || e.asBool();
         }
     }
 

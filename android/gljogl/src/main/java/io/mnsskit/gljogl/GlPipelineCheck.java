@@ -38,6 +38,10 @@ public final class GlPipelineCheck {
         }
         // The NPU outputs are the golden files echoed back: comparing them would prove nothing.
         Schedule.Step npuStep = manifest.schedule.npuStep();
+        // A bundle with a float path through the driver's pow() (demodulation) may move a code downstream of it.
+        boolean floatPath = manifest.gpu.passes.values().stream().anyMatch(p -> !p.exact);
+        int allowedLsb = floatPath ? 1 : 0;
+        System.out.println("int8 and 8-bit tensors: " + (floatPath ? "within 1 LSB (a pass is a float path)" : "bit-exact"));
         long tensors = 0;
         long values = 0;
         int wrong = 0;
@@ -45,7 +49,7 @@ public final class GlPipelineCheck {
             if (npuStep.outputs.containsValue(r.name)) {
                 continue;
             }
-            boolean ok = r.inLsb ? r.maxDiff == 0 : r.maxDiff <= FLOAT_TOLERANCE;
+            boolean ok = r.inLsb ? r.maxDiff <= allowedLsb : r.maxDiff <= FLOAT_TOLERANCE;
             System.out.println((ok ? "ok    " : "WRONG ") + r.summary());
             tensors++;
             values += r.count;
