@@ -1,14 +1,15 @@
 #!/usr/bin/env python
 """FuseSR ablation at x4 on the toolkit's own data: HR G-buffers on/off x BRDF demodulation on/off.
 
-    nice -n 10 python scripts/fusesr_ablation.py             # train, evaluate, write JSON and doc
+    nice -n 10 python scripts/fusesr_ablation.py --jobs 2    # train, evaluate, write JSON and doc
     python scripts/fusesr_ablation.py --doc-only             # regenerate docs/fusesr.md from docs/fusesr.json
 
 Four ``fusesr_x4_l`` models identical except ``model.gbuffers`` (all four, or none) and
-``model.demodulate``, each trained for the same wall-clock budget (``train.time_budget_min``)
-with the same seed and one thread, one run at a time, then evaluated on the held-out x4 test
-set.  A fifth run trains ``mnss_x2_tiny`` at x4 (more MACs per output pixel than
-``fusesr_x4_l``) on the same data with the same budget, for the issue's family comparison.
+``model.demodulate``, each trained for the same number of steps with the same seed and one
+thread (so a rerun is bit-exact, however busy the machine), then evaluated on the held-out x4
+test set.  A fifth run trains ``mnss_x2_tiny`` at x4 (more MACs per output pixel than
+``fusesr_x4_l``) on the same data for the same steps, for the issue's family comparison.
+``--jobs N`` trains N runs at once (one thread each).
 Then ``mnss-kit quantize`` takes the "both" model (``fusesr_x4_l``) to int8 and compares it with
 fp32 on the held-out set.  Every stage goes through ``mnss_kit.cli.main`` (``mnss-kit render``,
 ``train``, ``eval``, ``quantize``) and is skipped when its output exists, so an interrupted study
@@ -32,7 +33,7 @@ from mnss_kit.fileio import atomic_write_json, atomic_write_text, portable_path 
 DOC = REPO / "docs" / "fusesr.md"
 RESULTS = REPO / "docs" / "fusesr.json"
 WORK = REPO / "reports" / "fusesr"  # runs and eval JSON (git-ignored)
-BUDGET_MIN = 8.0  # wall-clock training minutes per run
+STEPS = 4000  # training steps per run
 THREADS = 1
 INT8_TARGET_DB = 0.2  # PSNR an int8 NPU stage may lose against fp32
 EVAL_METHODS = ("model", "bicubic")
@@ -40,8 +41,7 @@ METRICS = (("psnr", "PSNR dB", "{:.2f}"), ("ssim", "SSIM", "{:.4f}"), ("if_ssim"
 # the paper's ablation ordering, best first: both > either alone > neither
 ABLATION = ("both", "gbuffers", "demodulation", "neither")
 LABELS = {"both": "HR G-buffers + demodulation", "gbuffers": "HR G-buffers only", "demodulation": "demodulation only",
-          "neither": "neither", "mnss": "MNSS (mnss_x2_tiny at x4)",
-          "both_same_steps": "HR G-buffers + demodulation, the steps of 'demodulation only'"}
+          "neither": "neither", "mnss": "MNSS (mnss_x2_tiny at x4)"}
 
 
 @dataclass
@@ -49,7 +49,6 @@ class Run:
     name: str
     config: str
     overrides: list[str] = field(default_factory=list)
-    steps_of: str | None = None  # train for as many steps as this run took (no time budget)
 
 
 RUNS = [
@@ -58,8 +57,6 @@ RUNS = [
     Run("demodulation", "fusesr_x4_l", ["model.gbuffers=[]"]),
     Run("neither", "fusesr_x4_l", ["model.gbuffers=[]", "model.demodulate=false"]),
     Run("mnss", "mnss_x2_tiny", ["model.scale=4", "train.burn_in=4", "train.window=2", "train.crop=24"]),
-    # the machine's load moves the steps a time budget buys: "both" again with the step count of "demodulation"
-    Run("both_same_steps", "fusesr_x4_l", steps_of="demodulation"),
 ]
 
 
@@ -71,22 +68,27 @@ def cli(argv: list[str]) -> None:
         raise SystemExit(f"mnss-kit {' '.join(argv)} failed with exit code {code}")
 
 
-def train(run: Run, train_data: Path, budget: float) -> Path:
-    from mnss_kit.model.checkpoint import read_record
+def train(run: Run, train_data: Path, steps: int) -> Path:
+    """``mnss-kit train`` of ``run`` in a process of its own (so runs can train side by side); a killed
+    run resumes from its ``last.pt``."""
+    import subprocess
 
     model = WORK / "runs" / run.name / "model.pt"
     if model.exists():
         return model
-    if run.steps_of:
-        steps = read_record(WORK / "runs" / run.steps_of / "model.pt")[0]["training"]["steps"]
-        limit = [f"train.total_steps={steps}", "train.time_budget_min=null"]
-    else:
-        limit = ["train.total_steps=1000000", f"train.time_budget_min={budget}"]
-    keys = [f"train.train_data={train_data}", "train.val_data=null", *limit, "train.steps_per_epoch=1000",
+    keys = [f"train.train_data={train_data}", "train.val_data=null", f"train.total_steps={steps}",
+            "train.time_budget_min=null", "train.steps_per_epoch=1000",
             f"train.threads={THREADS}", "train.val_every=0", "train.checkpoint_every=200",
             "train.seed=0", "train.gt_history_epochs=0", "train.lr_schedule=constant"]
     sets = [arg for key in run.overrides + keys for arg in ("--set", key)]
-    cli(["train", run.config, "--out", str(model.parent), "--no-progress", *sets])
+    resume = ["--resume"] if (model.parent / "last.pt").exists() else []
+    argv = [sys.executable, "-m", "mnss_kit", "train", run.config, "--out", str(model.parent), "--no-progress", *resume, *sets]
+    log = WORK / "logs" / f"{run.name}.log"
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with open(log, "a") as out:
+        code = subprocess.run(argv, stdout=out, stderr=subprocess.STDOUT, cwd=REPO).returncode
+    if code:
+        raise SystemExit(f"training run '{run.name}' failed with exit code {code} (see {log})")
     return model
 
 
@@ -130,17 +132,20 @@ def run_study(args) -> dict:
     for config, out in (("test_x4", args.test_data), ("train_x4", args.train_data)):
         if not out.exists():
             cli(["render", config, "--out", str(out), "--no-progress"])
-    start, results = time.monotonic(), []
-    for run in RUNS:
-        model = train(run, args.train_data, args.budget)
-        results.append(collect(run, model, evaluate(run, model, args.test_data, args.eval_frames), args.train_data, args.test_data))
+    from concurrent.futures import ThreadPoolExecutor
+
+    start = time.monotonic()
+    with ThreadPoolExecutor(max_workers=args.jobs) as pool:  # each worker waits on its own training process
+        models = list(pool.map(lambda run: train(run, args.train_data, args.steps), RUNS))
+    results = [collect(run, model, evaluate(run, model, args.test_data, args.eval_frames), args.train_data, args.test_data)
+               for run, model in zip(RUNS, models)]
     int8 = quantize(WORK / "runs" / "both" / "model.pt", args.train_data, args.test_data, args.eval_frames)
     return {
         "int8": int8,
         "command": "nice -n 10 python scripts/fusesr_ablation.py"
-                   + (f" --budget {args.budget}" if args.budget != BUDGET_MIN else "")
+                   + (f" --steps {args.steps}" if args.steps != STEPS else "")
                    + (f" --eval-frames {args.eval_frames}" if args.eval_frames != 15 else ""),
-        "budget_min": args.budget, "threads": THREADS, "eval_frames_per_sequence": args.eval_frames,
+        "steps": args.steps, "jobs": args.jobs, "threads": THREADS, "eval_frames_per_sequence": args.eval_frames,
         "wall_seconds_this_invocation": time.monotonic() - start, "runs": results,
     }
 
@@ -148,8 +153,7 @@ def run_study(args) -> dict:
 def orderings(results: dict) -> list[dict]:
     """The paper's ablation ordering on PSNR: both > each alone > neither, and the family comparison."""
     by = {r["name"]: r for r in results["runs"]}
-    pairs = [("both", "gbuffers"), ("both", "demodulation"), ("gbuffers", "neither"), ("demodulation", "neither"), ("both", "mnss"),
-             ("both_same_steps", "demodulation")]
+    pairs = [("both", "gbuffers"), ("both", "demodulation"), ("gbuffers", "neither"), ("demodulation", "neither"), ("both", "mnss")]
     out = []
     for better, worse in pairs:
         claim = f"{LABELS[better]} > {LABELS[worse]}"
@@ -195,14 +199,13 @@ def render_doc(results: dict) -> str:
         "(`L = (colour - emissive) / F_beta` in linear light, nothing divided where F_beta is about 0), "
         "an LR encoder, the HR G-buffers (F_beta, normal, depth, albedo) pixel-unshuffled to LR and "
         "concatenated with it, a fusion backbone at LR (the int8 NPU stage), pixel shuffle, one conv, "
-        "then remodulation by the HR F_beta plus the HR emissive buffer.",
+        "then remodulation: the HR F_beta times (the backbone's residual plus the nearest upsample of L), "
+        "plus the HR emissive buffer.",
         "",
-        f"**Budget caveat.** Every run trains for the same {results['budget_min']:g} wall-clock minutes "
-        f"({results['threads']} thread, one run at a time, seed 0, constant learning rate) on "
-        f"`{first['train_data']}`, on a 2-core CPU shared with other work: a model that costs more per "
-        "step gets fewer steps, and so does a run made while the machine is busier (the steps column); "
-        "the last row trains the HR G-buffers + demodulation model again for exactly the steps of the "
-        "demodulation-only run.  Evaluated on the held-out "
+        f"**Budget.** Every run trains for the same {results['steps']} steps ({results['threads']} thread, "
+        f"{results['jobs']} run(s) at a time, seed 0, constant learning rate, batch 4) on "
+        f"`{first['train_data']}`: a rerun is bit-exact; the minutes column depends on the machine's load.  "
+        "Evaluated on the held-out "
         f"`{first['test_data']}` (first {results['eval_frames_per_sequence']} frames of each sequence, "
         "recurrent, as `mnss-kit eval`).  These are short runs, far from convergence.",
         "",
@@ -243,7 +246,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--train-data", type=Path, default=REPO / "data" / "train_x4", help="x4 training sequences (rendered if missing)")
     parser.add_argument("--test-data", type=Path, default=REPO / "data" / "test_x4", help="held-out x4 sequences (rendered if missing)")
-    parser.add_argument("--budget", type=float, default=BUDGET_MIN, help="training minutes per run")
+    parser.add_argument("--steps", type=int, default=STEPS, help=f"training steps per run (default {STEPS})")
+    parser.add_argument("--jobs", type=int, default=1, help="runs trained at once, one thread each (default 1)")
     parser.add_argument("--eval-frames", type=int, default=15, help="frames evaluated per test sequence")
     parser.add_argument("--doc-only", action="store_true", help="only regenerate the doc from docs/fusesr.json")
     args = parser.parse_args(argv)
