@@ -16,6 +16,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--models", nargs="+", metavar="MODEL",
                         help="checkpoints or shipped names (default: every shipped checkpoint and runs/*/model.pt)")
     parser.add_argument("--data", type=Path, help="held-out data set (default: render test_x2, or tiny_test with --quick)")
+    parser.add_argument("--scale", type=int, help="upscaling factor benched: the models of that scale and a held-out set "
+                        "at it (default: the --data set's, or 2; built-in sets: test_x2, test_x4, tiny_test at any)")
     parser.add_argument("--devices", nargs="+", metavar="NAME", help="device profiles (default: every shipped one)")
     parser.add_argument("--quick", action="store_true", help="a shortened run on small sequences (its charts say so)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -32,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
     from .run import BenchRequest, run_bench
 
     doc = run_bench(BenchRequest(out=args.out, work=args.work, models=args.models, data=args.data, quick=args.quick,
-                                 devices=args.devices, progress=not args.no_progress))
+                                 scale=args.scale, devices=args.devices, progress=not args.no_progress))
     written = write_charts(doc, charts)
     for key, r in doc["records"].items():
         cpu = (r.get("cpu_ms") or {}).get("xnnpack")

@@ -1,6 +1,7 @@
 """The bench run: every model in fp32 and int8 and the baselines, quality against cost, into one JSON.
 
-Per model (shipped checkpoints, and every ``runs/*/model.pt`` a ladder config was trained into):
+Per model (shipped checkpoints, and every ``runs/*/model.pt`` a ladder config was trained into,
+at the bench's scale: one bench compares models of one upscaling factor on one held-out set):
 
 * quality on the held-out frames (``mnss-kit eval``'s loop): fp32, and int8 with the NPU stage
   quantized on the calibration data and run in LiteRT's reference kernels;
@@ -35,6 +36,7 @@ class Settings:
     """What the numbers depend on; a bench file made with other settings is not resumed."""
 
     quick: bool
+    scale: int  # upscaling factor of the data and of every model benched
     data: str  # the held-out data set (a render config name, or a directory)
     max_frames: int | None  # per sequence
     latency_size: tuple[int, int]  # HR (w, h) the NPU stage is timed at
@@ -54,17 +56,61 @@ class BenchRequest:
     models: list[str] | None = None  # checkpoint paths or shipped names (default: module docstring)
     data: Path | None = None  # held-out data set (default: render the settings' config into ``work``)
     quick: bool = False
+    scale: int | None = None  # default: the data's scale, or 2
     devices: list[str] | None = None  # device profiles (default: every shipped one)
     progress: bool = True
     settings: Settings | None = field(default=None, init=False)
 
 
-def default_models(runs: Path = Path("runs")) -> list[str]:
-    """The shipped checkpoints, then every trained run under ``runs``."""
+def default_models(scale: int, runs: Path = Path("runs")) -> list[str]:
+    """The shipped checkpoints, then every trained run under ``runs``, of upscaling factor ``scale``."""
     from ..model.checkpoint import shipped_names
 
     trained = sorted(str(p) for p in runs.glob("*/model.pt")) if runs.is_dir() else []
-    return [*shipped_names(), *trained]
+    chosen = []
+    for name in [*shipped_names(), *trained]:
+        s = model_scale(name)
+        if s == scale:
+            chosen.append(name)
+        else:
+            log.info("bench at x%d: %s is x%s (mnss-kit bench --scale %s benches it)", scale, name, s, s)
+    return chosen
+
+
+def model_scale(name: str) -> int:
+    from ..model.checkpoint import read_record
+
+    return int(read_record(name)[0]["scale"])
+
+
+def scale_overrides(scale: int) -> list[str]:
+    """Render overrides that make a built-in x2 data config ``scale``: Halton jitter beyond x3
+    (the MNSS pattern exists for x2 and x3)."""
+    return [] if scale == 2 else [f"scale={scale}", *(["jitter=halton"] if scale > 3 else [])]
+
+
+def held_out_config(quick: bool, scale: int) -> tuple[str, list[str]]:
+    """The built-in held-out render config at ``scale`` and its overrides."""
+    from ..config import CONFIG_DIR
+
+    if quick:
+        return QUICK["data"], scale_overrides(scale)
+    name = FULL["data"] if scale == 2 else f"test_x{scale}"
+    if not (CONFIG_DIR / "data" / f"{name}.yaml").is_file():
+        raise UserError(f"no built-in held-out data set at x{scale} (mnss_kit/configs/data/{name}.yaml): give --data")
+    return name, []
+
+
+def bench_scale(request: BenchRequest) -> int:
+    """``request.scale``, which must be the data's when both are given; else the data's, else 2."""
+    if request.data is None:
+        return request.scale or 2
+    from ..dataset import format as fmt
+
+    data_scale = fmt.read_meta(fmt.find_sequences(request.data)[0]).scale
+    if request.scale and request.scale != data_scale:
+        raise UserError(f"--scale {request.scale} but {request.data} is x{data_scale}")
+    return data_scale
 
 
 def run_bench(request: BenchRequest) -> dict:
@@ -73,13 +119,18 @@ def run_bench(request: BenchRequest) -> dict:
 
     preset = QUICK if request.quick else FULL
     devices = tuple(request.devices or device_names())
-    settings = Settings(quick=request.quick, data=str(request.data) if request.data else preset["data"],
+    scale = bench_scale(request)
+    config, overrides = held_out_config(request.quick, scale) if request.data is None else (None, [])
+    models = request.models or default_models(scale)
+    wrong = [(m, s) for m, s in ((m, model_scale(m)) for m in models) if s != scale]
+    if wrong:
+        raise UserError(f"{wrong[0][0]} is x{wrong[0][1]} but the bench is x{scale} (bench one scale at a time: --scale)")
+    settings = Settings(quick=request.quick, scale=scale, data=str(request.data) if request.data else " ".join([config, *overrides]),
                         max_frames=preset["max_frames"], latency_size=preset["latency_size"],
                         latency_repeats=preset["latency_repeats"], emulated_frames=preset["emulated_frames"], devices=devices)
     doc = _resume(request.out, settings)
-    data = request.data or _rendered(preset["data"], request.work / "data", request.progress)
-    calibration = _calibration_data(request.work / "data", request.progress)
-    models = request.models or default_models()
+    data = request.data or _rendered(config, overrides, scale, request.work / "data", request.progress)
+    calibration = _calibration_data(request.work / "data", scale, request.progress)
     steps = [None, *models]  # None: the baselines
     if request.progress:
         from tqdm import tqdm
@@ -131,21 +182,21 @@ def _label(name: str) -> str:
     return path.parent.name if path.name == "model.pt" else path.stem
 
 
-def _rendered(config: str, root: Path, progress: bool) -> Path:
-    """The render config ``config`` rendered into ``root/config`` (once; reused afterwards)."""
+def _rendered(config: str, overrides: list[str], scale: int, root: Path, progress: bool) -> Path:
+    """The render config ``config`` (with ``overrides``) rendered into ``root`` (once; reused afterwards)."""
     from ..render.config import load_render_config
     from ..render.writer import render_dataset
 
-    out = root / config
-    render_dataset(load_render_config(config), out, progress=progress)  # skips frames already present
+    out = root / (config if not overrides else f"{config}_x{scale}")
+    render_dataset(load_render_config(config, overrides or None), out, progress=progress)  # skips frames already present
     return out
 
 
-def _calibration_data(root: Path, progress: bool) -> Path:
+def _calibration_data(root: Path, scale: int, progress: bool) -> Path:
     from ..quantize.api import render_calibration_data
 
-    out = root / "calibration"
-    return render_calibration_data(out, progress, with_reference=False)
+    out = root / ("calibration" if scale == 2 else f"calibration_x{scale}")
+    return render_calibration_data(out, progress, with_reference=False, overrides=scale_overrides(scale))
 
 
 def baseline_records(data: Path, settings: Settings) -> list[dict]:

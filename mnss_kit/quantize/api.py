@@ -80,7 +80,7 @@ def quantize(request: QuantizeRequest):
     return art, files
 
 
-def render_calibration_data(root: Path, progress: bool, with_reference: bool = True) -> Path:
+def render_calibration_data(root: Path, progress: bool, with_reference: bool = True, overrides: list[str] | None = None) -> Path:
     """Render the default calibration data config into ``root`` (EGL); returns the dataset directory.
 
     Without ``with_reference`` the HR reference gets one sample per pixel: calibration reads LR
@@ -90,8 +90,8 @@ def render_calibration_data(root: Path, progress: bool, with_reference: bool = T
     from ..render.config import load_render_config
     from ..render.writer import render_dataset
 
-    overrides = None if with_reference else ["hr_samples=1"]
-    render_dataset(load_render_config(DEFAULT_DATA_CONFIG, overrides), root, progress=progress)
+    overrides = [*(overrides or []), *([] if with_reference else ["hr_samples=1"])]
+    render_dataset(load_render_config(DEFAULT_DATA_CONFIG, overrides or None), root, progress=progress)
     return root
 
 

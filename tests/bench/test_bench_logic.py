@@ -46,8 +46,9 @@ def test_record_schema(changes, problem):
 def fake_measurements(monkeypatch, tmp_path):
     """The bench with data preparation and measurements replaced by counters and fixed records."""
     calls = []
-    monkeypatch.setattr(bench_run, "_rendered", lambda config, root, progress: tmp_path / config)
-    monkeypatch.setattr(bench_run, "_calibration_data", lambda root, progress: tmp_path / "calibration")
+    monkeypatch.setattr(bench_run, "_rendered", lambda config, overrides, scale, root, progress: tmp_path / config)
+    monkeypatch.setattr(bench_run, "_calibration_data", lambda root, scale, progress: tmp_path / "calibration")
+    monkeypatch.setattr(bench_run, "model_scale", lambda name: 4 if name.endswith("_x4") else 2)
     monkeypatch.setattr(bench_run, "baseline_records", lambda data, settings: calls.append("baselines") or [
         good_record(name=b, family="baseline", precision="baseline", macs_per_pixel=0.0, cpu_ms=None, device_ms={})
         for b in bench_run.BASELINES])
@@ -75,6 +76,19 @@ def test_a_killed_run_resumes_with_the_records_it_has(fake_measurements, tmp_pat
     fake_measurements.clear()
     bench_run.run_bench(bench_run.BenchRequest(models=["a"], **{**request, "quick": False}))
     assert fake_measurements == ["baselines", "a"]  # other settings: nothing reused
+
+
+def test_one_bench_is_one_scale(fake_measurements, tmp_path, monkeypatch):
+    from mnss_kit.errors import UserError
+
+    request = dict(out=tmp_path / "bench.json", work=tmp_path / "work", devices=["snapdragon_8_gen_1"], quick=True, progress=False)
+    with pytest.raises(UserError, match=r"model_x4 is x4 but the bench is x2 \(bench one scale at a time: --scale\)"):
+        bench_run.run_bench(bench_run.BenchRequest(models=["a", "model_x4"], **request))
+    doc = bench_run.run_bench(bench_run.BenchRequest(models=["model_x4"], scale=4, **request))
+    assert doc["settings"]["scale"] == 4 and doc["settings"]["data"] == "tiny_test scale=4 jitter=halton"
+    monkeypatch.setattr("mnss_kit.model.checkpoint.shipped_names", lambda: ["a", "model_x4"])
+    assert bench_run.default_models(4, runs=tmp_path / "no_runs") == ["model_x4"]
+    assert bench_run.default_models(2, runs=tmp_path / "no_runs") == ["a"]
 
 
 def test_charts_are_drawn_from_a_bench_document(tmp_path):

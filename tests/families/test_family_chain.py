@@ -41,6 +41,7 @@ class Case:
     float_gpu: bool = False
     recurrent: bool = False  # the NPU input holds the previous output, so it follows the profile's NPU after frame 0
     gl_tensors: int = field(default=2)  # GL-produced tensors the app compares per golden frame
+    shipped: str | None = None  # a shipped checkpoint of this configuration's family, scale and history
 
 
 CASES = {
@@ -50,14 +51,14 @@ CASES = {
                    (f"frames={LR_FRAMES}", "scale=4", "jitter=halton", "hr_samples=1", "lr_size=[48,24]"),
                    {"demodulate": "gpu", "encode": "gpu", "unshuffle": "gpu", "backbone": "npu", "remodulate": "gpu"},
                    ("color", "lr_fbeta", "lr_emissive", "hr_fbeta", "hr_normal", "hr_depth", "hr_albedo", "hr_emissive"),
-                   float_gpu=True),
+                   float_gpu=True, shipped="fusesr_x4_l"),
     "fusesr_hybrid": Case("fusesr", {"family": "fusesr", "scale": 2, "history": True, "encoder_width": 4, "width": 8,
                                      "hr_channels": 4},
                           (f"frames={LR_FRAMES}", "hr_samples=1", "lr_size=[48,24]"),
                           {"warp_history": "gpu", "demodulate": "gpu", "encode": "gpu", "unshuffle": "gpu", "backbone": "npu",
                            "remodulate": "gpu"},
                           ("color", "lr_fbeta", "lr_emissive", "depth", "motion", "hr_fbeta", "hr_normal", "hr_depth",
-                           "hr_albedo", "hr_emissive"), float_gpu=True, recurrent=True),
+                           "hr_albedo", "hr_emissive"), float_gpu=True, recurrent=True, shipped="fusesr_x2_hybrid"),
 }
 
 
@@ -222,3 +223,31 @@ def test_app_gl_pipeline_reproduces_the_golden_frames_on_mesa(bundle, chain, tmp
     tensors, values = run_gl_pipeline(compile_gl_pipeline(tmp_path / "classes"), bundle)
     print(f"GL pipeline on the {chain['case'].family} bundle: {tensors} tensors, {values} values compared over {frames} golden frames")
     assert tensors == chain["case"].gl_tensors * frames  # the NPU input buffer and the display, every frame
+
+
+def test_a_bundle_of_the_shipped_checkpoint_passes_the_app_checks(chain, tmp_path):
+    """The shipped checkpoint (its trained weights) exported on the case's small render: the Android
+    core's verify, read and self-test, then the app's GL pipeline on Mesa."""
+    import sys
+
+    name = chain["case"].shipped
+    if name is None:
+        pytest.skip("no shipped checkpoint of this family")
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "android"))
+    from java_harness import compile_core, compile_gl_pipeline, missing_jogl, missing_tools, run_gl_pipeline
+
+    reason = missing_tools() or missing_jogl()
+    if reason:
+        pytest.skip(reason)
+    from mnss_kit.dataset.format import find_sequences, read_meta
+
+    hr_w, hr_h = read_meta(find_sequences(chain["data"])[0]).hr_size
+    bundle = tmp_path / name
+    assert main(["export", name, "--out", str(bundle), "--data", str(chain["data"]), "--resolution", f"{hr_w}x{hr_h}",
+                 "--no-progress"]) == 0
+    java = compile_core(tmp_path / "classes")
+    assert java.tool("verify", str(bundle)) == ""
+    assert java.tool("selftest", str(bundle), str(tmp_path / "dump"), "0").strip().endswith("PASSED")
+    frames = len(json.loads((bundle / "manifest.json").read_text())["golden"]["frames"])
+    tensors, values = run_gl_pipeline(compile_gl_pipeline(tmp_path / "gl"), bundle)
+    assert tensors == chain["case"].gl_tensors * frames and values > 0
