@@ -151,7 +151,7 @@ def main() -> int:
         bundle, seq = make_bundle(args.workdir or Path(tmp), args.frames)
         export_seconds = time.perf_counter() - start
         emulator = Emulator(bundle, args.profile, "numpy", "numpy")
-        frames = [f for _, f, _ in sequence_frames(seq, read_meta(seq), args.frames)]
+        frames = [f for _, f, _ in sequence_frames(seq, read_meta(seq), args.frames, emulator.runner.inputs)]
         timings, cpu, gpu, last = run_frames(emulator, frames)
         ops = op_profile(emulator, last.tensors[emulator.spec.boundary("gpu->npu")["tensor"]])
         n_ops = len(emulator.spec.graph.ops)

@@ -22,6 +22,12 @@ from mnss_kit.emulate.sequence import sequence_frames
 from mnss_kit.ops.runtimes import RUNTIMES
 
 
+def bundle_frames(bundle: Path, seq: Path, frames: int) -> list[dict]:
+    """The first ``frames`` frames of sequence ``seq`` with the inputs ``bundle`` reads."""
+    inputs = Emulator(bundle, "tflite-ref", "numpy").runner.inputs
+    return [f for _, f, _ in sequence_frames(seq, read_meta(seq), frames, inputs)]
+
+
 def compare(bundle: Path, frames: list[dict], profile: str) -> dict:
     runtime_backend = RUNTIMES[profile].engine
     emulated, runtime = Emulator(bundle, profile, "numpy"), Emulator(bundle, profile, runtime_backend)
@@ -42,7 +48,7 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=10)
     parser.add_argument("--json", type=Path, default=Path("bench/results/emulator_exactness.json"))
     args = parser.parse_args()
-    frames = [f for _, f, _ in sequence_frames(args.data, read_meta(args.data), args.frames)]
+    frames = bundle_frames(args.bundle, args.data, args.frames)
     results = {}
     for profile in RUNTIMES:
         results[profile] = compare(args.bundle, frames, profile)

@@ -91,10 +91,9 @@ def device_ms(e: Entry) -> dict:
 
 def exactness(e: Entry, data: Path) -> dict:
     """int8 values differing between the emulator and each profile's runtime on the first test sequence."""
-    from emulator_exactness import compare
+    from emulator_exactness import bundle_frames, compare
 
-    from mnss_kit.dataset.format import find_sequences, read_meta
-    from mnss_kit.emulate.sequence import sequence_frames
+    from mnss_kit.dataset.format import find_sequences
     from mnss_kit.ops.runtimes import RUNTIMES
 
     bundle = WORK / "bundle" / e.name
@@ -104,7 +103,7 @@ def exactness(e: Entry, data: Path) -> dict:
     path = WORK / "exactness" / f"{e.name}.json"
     if not path.exists():
         seq = find_sequences(data / e.test)[0]
-        frames = [f for _, f, _ in sequence_frames(seq, read_meta(seq), EXACTNESS_FRAMES)]
+        frames = bundle_frames(bundle, seq, EXACTNESS_FRAMES)
         atomic_write_json(path, {"sequence": seq.name, "profiles": {p: compare(bundle, frames, p) for p in RUNTIMES}})
     return json.loads(path.read_text())
 
