@@ -18,7 +18,7 @@ import torch
 from mnss_kit.bench.latency import npu_latency, npu_stage_files
 from mnss_kit.fileio import atomic_write_json
 from mnss_kit.model.config import load_model_config
-from mnss_kit.model.families import build_model, npu_module
+from mnss_kit.model.families import build_model
 
 
 def main() -> int:
@@ -33,12 +33,12 @@ def main() -> int:
     args = parser.parse_args()
 
     torch.manual_seed(0)
-    module = npu_module(build_model(load_model_config(args.model)).eval())
+    model = build_model(load_model_config(args.model)).eval()
     hr_size = (args.width, args.height)
-    latency = npu_latency(module, hr_size, args.repeats, args.warmup, args.threads)
+    latency = npu_latency(model, hr_size, args.repeats, args.warmup, args.threads)
     for name, t in latency.items():
         print(f"{name:20s} int8 {t['int8_ms']:8.2f} ms  fp32 {t['fp32_ms']:8.2f} ms  fp32/int8 {t['fp32_over_int8']:.2f}")
-    files, int8_graph, _ = npu_stage_files(module, hr_size)
+    files, int8_graph, _ = npu_stage_files(model, hr_size)
 
     result = {
         "benchmark": "quantize",

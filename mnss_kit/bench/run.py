@@ -230,7 +230,7 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
     methods = {"fp32": model_method(model), "int8": model_method(int8_model(model, art))}
     result = evaluate(methods, data, scale=model.scale, max_frames=settings.max_frames, progress=False)
     macs = count_macs(model)
-    latency = npu_latency(npu_module(model), settings.latency_size, settings.latency_repeats)
+    latency = npu_latency(model, settings.latency_size, settings.latency_repeats)
     cost = {"macs_per_pixel": macs.total, "npu_macs_per_pixel": macs.by_placement("npu"), "params": macs.params,
             "device_ms": device_estimates(model, settings.devices, settings.latency_size)}
     common = {"name": label, "family": family.name, "source": str(name), **cost}
@@ -239,6 +239,8 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
     int8 = {**common, "precision": "int8", **quality(result["methods"]["int8"]),
             "cpu_ms": {rt: t["int8_ms"] for rt, t in latency.items()},
             "cpu_fp32_over_int8": {rt: t["fp32_over_int8"] for rt, t in latency.items()},
+            # ONNX Runtime's default x86 int8 path, timed beside ort-cpu: faster, CPU-dependent results
+            "ort_u8_path_ms": latency["ort-cpu"]["int8_u8_ms"],
             **emulated(name, data, calibration, settings, work / "bundles" / label)}
     return [fp32, int8]
 

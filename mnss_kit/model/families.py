@@ -62,6 +62,26 @@ def npu_module(model):
     return npu_stage(model)[1]
 
 
+def npu_input_shapes(model, hr_size: tuple[int, int]) -> list[tuple[int, ...]]:
+    """NCHW shapes of the NPU stage's inputs when ``model`` outputs ``hr_size`` = (W, H): one
+    frame of the family's example inputs run through it, the stage's arguments recorded."""
+    import torch
+
+    from .family import example_frame
+
+    w, h = hr_size
+    scale = model.config.scale
+    frame = example_frame(family_of(model), h // scale, w // scale, scale, generator=torch.Generator().manual_seed(0))
+    seen = []
+    hook = npu_module(model).register_forward_pre_hook(lambda module, args: seen.append([tuple(a.shape) for a in args]))
+    try:
+        with torch.no_grad():
+            model(frame)
+    finally:
+        hook.remove()
+    return seen[0]
+
+
 def npu_stage_name(model) -> str:
     """The one NPU stage's name (:func:`npu_stage`)."""
     return npu_stage(model)[0]

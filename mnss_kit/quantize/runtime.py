@@ -63,13 +63,14 @@ ORT_GRAPH_OPTIMIZATION = "ORT_ENABLE_EXTENDED"
 FLOAT_GRAPH_OPTIMIZATION = "ORT_ENABLE_ALL"
 
 
-def ort_session_options(num_threads: int = 1, level: str = ORT_GRAPH_OPTIMIZATION):
+def ort_session_options(num_threads: int = 1, level: str = ORT_GRAPH_OPTIMIZATION, qdq_int8: bool = True):
     """The session options of the ``ort-cpu`` runtime: one optimisation level, int8 QDQ fusion on.
 
     Without ``session.qdqisint8allowed`` ONNX Runtime on x86 rewrites some int8 QDQ convolutions
     to uint8 activations (its QDQS8ToU8 pass) and runs them in MLAS's u8 x s8 kernels, which on
     CPUs without VNNI sum pairs of products in saturating int16: results then depend on the CPU.
-    With the flag the convolutions stay int8 x int8, whose integers do not.
+    With the flag the convolutions stay int8 x int8, whose integers do not.  ``qdq_int8=False``
+    (ONNX Runtime's default path: faster on x86, not the ``ort-cpu`` runtime) is for timing only.
     """
     import onnxruntime as ort
 
@@ -78,7 +79,8 @@ def ort_session_options(num_threads: int = 1, level: str = ORT_GRAPH_OPTIMIZATIO
     options.inter_op_num_threads = 1
     options.log_severity_level = 3
     options.graph_optimization_level = getattr(ort.GraphOptimizationLevel, level)
-    options.add_session_config_entry("session.qdqisint8allowed", "1")
+    if qdq_int8:
+        options.add_session_config_entry("session.qdqisint8allowed", "1")
     return options
 
 
@@ -87,11 +89,12 @@ class OnnxRunner:
 
     ``level``: a ``GraphOptimizationLevel`` name; QDQ models run at the ``ort-cpu`` one."""
 
-    def __init__(self, model, num_threads: int = 1, level: str = ORT_GRAPH_OPTIMIZATION):
+    def __init__(self, model, num_threads: int = 1, level: str = ORT_GRAPH_OPTIMIZATION, qdq_int8: bool = True):
         import onnxruntime as ort
 
         data = model if isinstance(model, bytes) else model.SerializeToString()
-        self.session = ort.InferenceSession(data, ort_session_options(num_threads, level), providers=["CPUExecutionProvider"])
+        options = ort_session_options(num_threads, level, qdq_int8)
+        self.session = ort.InferenceSession(data, options, providers=["CPUExecutionProvider"])
         self.input_names = [i.name for i in self.session.get_inputs()]
         self.output_names = [o.name for o in self.session.get_outputs()]
 
