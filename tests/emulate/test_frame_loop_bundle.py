@@ -267,3 +267,16 @@ def test_data_of_another_scale_is_a_user_error(root, tmp_path):
     write_synthetic_sequence(tmp_path / "x3", name="x3", lr_size=(32, 24), scale=3, frames=2)
     with pytest.raises(UserError, match="scale 3, the bundle is x2"):
         run_dataset(Emulator(root / "bundle"), tmp_path / "x3")
+
+
+def test_emulator_exactness_script_counts_no_difference_on_the_bundle(root):
+    """scripts/emulator_exactness.py, as the docs run it, on this bundle: every profile exact."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
+    from emulator_exactness import bundle_frames, compare
+
+    frames = bundle_frames(root / "bundle", root / "data" / "pan", 3)
+    for profile in ("tflite-ref", "ort-cpu"):
+        result = compare(root / "bundle", frames, profile)
+        assert result["int8_values_compared"] > 0 and result["int8_values_differing"] == 0, (profile, result)
