@@ -180,10 +180,12 @@ class WindowDataset(Dataset):
         cache_dir: str | Path | None = None,
         progress: bool = True,
         needed_by: str = "",
+        augment: dict | None = None,
     ):
         if window < 1 or stride < 1:
             raise UserError(f"window and stride must be >= 1, got window={window} stride={stride}")
         self.window, self.seed, self.epoch = window, seed, 0
+        self.augment = dict(augment or {})  # name -> probability per window (dataset.augment)
         self.window_starts_reset = window_starts_reset
         self.extra_keys = extra_buffer_keys(hr_buffers, lr_buffers)
         self.sequences = open_sequences(root, self.extra_keys, cache, cache_dir, progress, needed_by)
@@ -233,6 +235,11 @@ class WindowDataset(Dataset):
     def __getitem__(self, index: int) -> dict[str, torch.Tensor]:
         seq, start = self.windows[index]
         arrays = self.sequences[seq].frames(start, self.window, self.crop_for(index), self.extra_keys, self.window_starts_reset)
+        if self.augment:
+            from .augment import augment_window
+
+            rng = np.random.default_rng([self.seed, self.epoch, index, 1])  # 1: not the crop's stream
+            arrays = augment_window(arrays, self.sequences[seq].meta, self.augment, rng)
         return {k: torch.from_numpy(v) for k, v in arrays.items()}
 
     def fingerprint(self) -> str:

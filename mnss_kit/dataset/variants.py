@@ -11,7 +11,9 @@ tested (and trained) on them; the HR buffers, which only the loss and the metric
                    get the motion of the camera, as in engines without per-object motion vectors
 
 Variants apply in the order above except that ``camera_motion`` reads the unquantized depth, as
-an engine computes it before writing depth out.  Un-jittered or Halton input are render settings
+an engine computes it before writing depth out.  The array functions (:func:`ldr8_colour`,
+:func:`hardware_depth_bits`, :func:`noisy_motion`) are also the training augmentations'
+(``train/augment.py``).  Un-jittered or Halton input are render settings
 (``mnss-kit render CONFIG --set jitter=center``), not variants.
 """
 
@@ -61,13 +63,13 @@ def write_variant(src: Path, dst: Path, names: list[str]) -> None:
     for i in range(meta.frame_count):
         if "ldr8" in names:
             lr = fmt.canonical_colour(fmt.read_raw_buffer(src, "lr", "color", i), meta)
-            fmt.write_buffer(dst, "lr", "color", i, np.round(lr * 255.0) / 255.0)
+            fmt.write_buffer(dst, "lr", "color", i, ldr8_colour(lr))
             fmt.write_buffer(dst, "hr", "reference", i, fmt.canonical_colour(fmt.read_raw_buffer(src, "hr", "reference", i), meta))
         if "camera_motion" in names:
             fmt.write_buffer(dst, "lr", "motion", i, camera_motion(src, meta, i) if i > 0 else fmt.read_raw_buffer(src, "lr", "motion", i))
         if "motion_noise" in names:
             motion = fmt.read_raw_buffer(dst, "lr", "motion", i)
-            fmt.write_buffer(dst, "lr", "motion", i, motion + rng.normal(0.0, MOTION_NOISE_PX, motion.shape) / meta.motion.scale)
+            fmt.write_buffer(dst, "lr", "motion", i, noisy_motion(motion, rng, MOTION_NOISE_PX / meta.motion.scale))
         if bits:
             fmt.write_buffer(dst, "lr", "depth", i, reversed_depth(fmt.read_raw_buffer(src, "lr", "depth", i), meta, bits))
     changes = {"scene": {**meta.scene, "input_variants": names}}
@@ -80,18 +82,34 @@ def write_variant(src: Path, dst: Path, names: list[str]) -> None:
     fmt.write_meta(dst, fmt.replace_meta(meta, **changes))
 
 
-def reversed_depth(raw: np.ndarray, meta: fmt.SequenceMeta, bits: int | None = None) -> np.ndarray:
-    """Stored depth as reversed hardware depth (near 1, far 0), rounded to ``bits`` bits when given."""
-    if meta.depth_encoding == "hardware":
-        z = fmt.view_depth(raw, meta.near, meta.far, meta.reverse_z)
-    else:
-        z = np.maximum(raw.astype(np.float64), meta.near)
-    forward = (1.0 - meta.near / z) / (1.0 - meta.near / meta.far)  # inverse of fmt.view_depth
+def ldr8_colour(display: np.ndarray) -> np.ndarray:
+    """Display values rounded to 8 bits, as an LDR capture stores them."""
+    return (np.round(np.asarray(display, np.float32) * np.float32(255.0)) / np.float32(255.0)).astype(np.float32)
+
+
+def noisy_motion(motion: np.ndarray, rng: np.random.Generator, sigma: float) -> np.ndarray:
+    """Motion plus independent Gaussian noise of ``sigma`` (in the motion's own units) per component."""
+    return (motion + rng.normal(0.0, sigma, motion.shape)).astype(np.float32)
+
+
+def hardware_depth_bits(z: np.ndarray, near: float, far: float, bits: int | None = None) -> np.ndarray:
+    """View depth ``z`` as reversed hardware depth (near 1, far 0), rounded to ``bits`` bits when given."""
+    z = np.maximum(np.asarray(z, np.float64), near)
+    forward = (1.0 - near / z) / (1.0 - near / far)  # inverse of fmt.view_depth
     reverse = 1.0 - np.clip(forward, 0.0, 1.0)
     if bits is not None:
         levels = float(2 ** bits - 1)
         reverse = np.round(reverse * levels) / levels
     return reverse.astype(np.float32)
+
+
+def reversed_depth(raw: np.ndarray, meta: fmt.SequenceMeta, bits: int | None = None) -> np.ndarray:
+    """Stored depth as reversed hardware depth (near 1, far 0), rounded to ``bits`` bits when given."""
+    if meta.depth_encoding == "hardware":
+        z = fmt.view_depth(raw, meta.near, meta.far, meta.reverse_z)
+    else:
+        z = raw.astype(np.float64)
+    return hardware_depth_bits(z, meta.near, meta.far, bits)
 
 
 def camera_motion(seq: Path, meta: fmt.SequenceMeta, index: int) -> np.ndarray:

@@ -66,6 +66,7 @@ class TrainConfig:
     val_crop: int | None = 64  # LR pixels; None = full frames
     log_dir: str | None = None  # TensorBoard directory; default OUT/logs
     time_budget_min: float | None = None  # stop cleanly (final checkpoint) after this much time
+    augment: dict[str, float] = field(default_factory=dict)  # augmentation -> probability per training window (dataset/augment.py)
 
     def __post_init__(self):
         positive = ("window", "batch_size", "crop", "epochs", "steps_per_epoch", "checkpoint_every", "log_every", "val_windows")
@@ -83,6 +84,9 @@ class TrainConfig:
             raise ValueError(f"lr_schedule must be 'constant' or 'cosine', got '{self.lr_schedule}'")
         if self.time_budget_min is not None and self.time_budget_min <= 0:
             raise ValueError(f"time_budget_min must be positive, got {self.time_budget_min}")
+        from ..dataset.augment import check_augment
+
+        check_augment(self.augment)
 
     @property
     def steps(self) -> int:

@@ -71,14 +71,15 @@ class PassWindows(Dataset):
 
 
 def open_windows(cfg: TrainConfig, dirs: list[Path], crop: int | None, progress: bool,
-                 family=None) -> WindowDataset:
+                 family=None, augment: bool = False) -> WindowDataset:
     """The windows of ``dirs`` with the decoded-frame cache (built on first use), with the G-buffers
-    ``family`` (a ``model.family.Family``, or None: the base buffers only) reads."""
+    ``family`` (a ``model.family.Family``, or None: the base buffers only) reads; ``augment``: the
+    config's ``train.augment`` (training windows only)."""
     size = None if crop is None else (crop, crop)
     return WindowDataset([str(d) for d in dirs], cfg.frames_per_window, size, seed=cfg.seed, cache=True, cache_dir=cfg.cache_dir,
                          progress=progress,
                          hr_buffers=family.hr_inputs if family else (), lr_buffers=family.lr_buffers if family else (),
-                         needed_by=f"the {family.name} family" if family else "")
+                         needed_by=f"the {family.name} family" if family else "", augment=cfg.augment if augment else None)
 
 
 def step_loader(windows: WindowDataset, cfg: TrainConfig, rank: int, world_size: int, start_step: int) -> DataLoader:

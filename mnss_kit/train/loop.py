@@ -243,10 +243,10 @@ def _set_lr(optimizer, cfg: TrainConfig, step: int) -> None:
 def _open_data(cfg: TrainConfig, world, progress: bool, family):
     """Training windows (rank 0 builds the decoded cache, the others then open it) and rank 0's validation windows."""
     if world.is_main:
-        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, progress, family)
+        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, progress, family, augment=True)
     distributed.barrier(world)
     if not world.is_main:
-        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, False, family)
+        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, False, family, augment=True)
     val = None
     if world.is_main and cfg.val_dirs():
         val = open_windows(cfg, cfg.val_dirs(), cfg.val_crop, progress, family)
