@@ -176,8 +176,9 @@ def int16_blocker(graph: Graph, name: str) -> str | None:
     """Why activation ``name`` cannot be stored as int16 in LiteRT, or None if it can.
 
     DEPTH_TO_SPACE and SPACE_TO_DEPTH have no int16 kernels (their tensors share
-    parameters with their neighbours, so the whole group is affected), and a
-    general clamp relies on int8 saturation.
+    parameters with their neighbours, so the whole group is affected), a general
+    clamp relies on int8 saturation, and the graph's inputs and outputs are the
+    int8 GPU <-> NPU boundary a bundle's shaders pack and unpack.
     """
     group = next(m for m in _param_groups(graph) if name in m)
     for member in group:
@@ -188,4 +189,6 @@ def int16_blocker(graph: Graph, name: str) -> str | None:
                 return f"{op.kind} has no int16 kernel"
             if member in op.outputs and op.options.get("activation") == "clamp":
                 return "clamp is enforced by int8 saturation"
+    if any(member in graph.inputs or member in graph.outputs for member in group):
+        return "a graph input or output: the GPU <-> NPU boundary is int8"
     return None
