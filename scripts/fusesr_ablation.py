@@ -144,6 +144,7 @@ def run_study(args) -> dict:
         "int8": int8,
         "command": "nice -n 10 python scripts/fusesr_ablation.py"
                    + (f" --steps {args.steps}" if args.steps != STEPS else "")
+                   + (f" --jobs {args.jobs}" if args.jobs != 1 else "")
                    + (f" --eval-frames {args.eval_frames}" if args.eval_frames != 15 else ""),
         "steps": args.steps, "jobs": args.jobs, "threads": THREADS, "eval_frames_per_sequence": args.eval_frames,
         "wall_seconds_this_invocation": time.monotonic() - start, "runs": results,

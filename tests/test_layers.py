@@ -12,7 +12,9 @@ STAGES = ["render", "dataset", "model", "train", "eval", "quantize", "split", "e
 # Stages that may be imported from anywhere: shared foundations, not pipeline steps.
 SHARED = {"ops", "metrics", "config", "errors", "fileio", "resources", "shaders", "gpu"}
 # The on-disk dataset format is a contract: the renderer writes it, every later stage reads it.
-CONTRACT_MODULES = {"mnss_kit.dataset.format", "mnss_kit.dataset.exr"}
+# So is the family table's list of the buffers each family reads (docs/dataset.md, "Buffers each
+# model family needs"): data check names them (model.families is light: no torch at import).
+CONTRACT_MODULES = {"mnss_kit.dataset.format", "mnss_kit.dataset.exr", "mnss_kit.model.families"}
 
 
 def imported_modules(path: Path) -> set[str]:
