@@ -78,5 +78,12 @@ def main(argv: list[str] | None = None) -> int:
     return int(code or 0)
 
 
+def main_or_exit(argv: list[str]) -> None:
+    """:func:`main` for scripts that chain commands: ``SystemExit`` naming the command when it fails."""
+    code = main(argv)
+    if code:
+        raise SystemExit(f"mnss-kit {' '.join(argv)} failed with exit code {code}")
+
+
 if __name__ == "__main__":
     sys.exit(main())

@@ -25,6 +25,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from mnss_kit.cli import main_or_exit as cli  # noqa: E402
 from mnss_kit.fileio import atomic_output_path, atomic_write_json, atomic_write_text, portable_path  # noqa: E402
 
 DOC = REPO / "docs" / "ablation.md"
@@ -67,14 +68,6 @@ def plan(train_x2: Path, test_x2: Path, eval_frames: int) -> tuple[list[Run], li
                     ("ablation_test", pattern, test_dir)]
         runs.append(Run(f"jitter_{pattern}", "jitter", pattern, train_dir, test_dir))
     return runs, renders
-
-
-def cli(argv: list[str]) -> None:
-    from mnss_kit.cli import main as mnss_kit
-
-    code = mnss_kit(argv)
-    if code:
-        raise SystemExit(f"mnss-kit {' '.join(argv)} failed with exit code {code}")
 
 
 def render(config: str, pattern: str, out: Path) -> None:

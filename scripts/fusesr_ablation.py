@@ -28,6 +28,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from mnss_kit.cli import main_or_exit as cli  # noqa: E402
 from mnss_kit.fileio import atomic_write_json, atomic_write_text, portable_path  # noqa: E402
 
 DOC = REPO / "docs" / "fusesr.md"
@@ -58,14 +59,6 @@ RUNS = [
     Run("neither", "fusesr_x4_l", ["model.gbuffers=[]", "model.demodulate=false"]),
     Run("mnss", "mnss_x2_tiny", ["model.scale=4", "train.burn_in=4", "train.window=2", "train.crop=24"]),
 ]
-
-
-def cli(argv: list[str]) -> None:
-    from mnss_kit.cli import main as mnss_kit
-
-    code = mnss_kit(argv)
-    if code:
-        raise SystemExit(f"mnss-kit {' '.join(argv)} failed with exit code {code}")
 
 
 def train(run: Run, train_data: Path, steps: int) -> Path:

@@ -24,6 +24,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "scripts"))
 
+from mnss_kit.cli import main_or_exit as cli  # noqa: E402
 from mnss_kit.fileio import atomic_write_json, atomic_write_text  # noqa: E402
 
 DOC = REPO / "docs" / "fusesr_shipped.md"
@@ -51,14 +52,6 @@ ENTRIES = [
     Entry("mnss_x2", "train_x2", "test_x2", "640x360", False),
 ]
 COMPARISONS = [("fusesr_x2_hybrid", "mnss_x2")]
-
-
-def cli(argv: list[str]) -> None:
-    from mnss_kit.cli import main as mnss_kit
-
-    code = mnss_kit(argv)
-    if code:
-        raise SystemExit(f"mnss-kit {' '.join(argv)} failed with exit code {code}")
 
 
 def evaluate(e: Entry, data: Path, frames: int) -> dict:

@@ -2,12 +2,33 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import pytest
 
 from mnss_kit.dataset.synthetic import write_synthetic_sequence
 
+sys.path.insert(0, str(Path(__file__).resolve().parent / "android"))  # the Java harness, for every test directory
+from java_harness import JavaCore, compile_core, compile_gl_pipeline, missing_jogl, missing_tools  # noqa: E402
+
+
+
+@pytest.fixture(scope="session")
+def java_core(tmp_path_factory) -> JavaCore:
+    reason = missing_tools()
+    if reason:
+        pytest.skip(reason)
+    return compile_core(tmp_path_factory.mktemp("android_core_classes"))
+
+
+@pytest.fixture(scope="session")
+def gl_classes(tmp_path_factory) -> Path:
+    """The core and android/gljogl (the JOGL binding) compiled; skips without JOGL."""
+    reason = missing_jogl()
+    if reason:
+        pytest.skip(reason)
+    return compile_gl_pipeline(tmp_path_factory.mktemp("gl_pipeline_classes"))
 
 
 def pytest_configure(config):

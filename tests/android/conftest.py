@@ -1,4 +1,4 @@
-"""Fixtures: the Android app's plain-Java core compiled once per session, and a tiny exported bundle.
+"""Fixtures: a tiny exported bundle (the compiled Java core and GL pipeline are tests/conftest.py's).
 
 Without a JDK (javac 17 or newer) or the JUnit 4 and Hamcrest jars every test here is skipped with
 the reason; CI installs them (scripts/setup.sh).
@@ -10,27 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from java_harness import REPO, JavaCore, compile_core, compile_gl_pipeline, missing_jogl, missing_tools
 
 BUNDLE_SIZE = "64x48"  # the synthetic dataset's HR size: its frames become the golden frames
 from recorded_sequence import SEQUENCE_FRAMES
-
-
-@pytest.fixture(scope="session")
-def java_core(tmp_path_factory) -> JavaCore:
-    reason = missing_tools()
-    if reason:
-        pytest.skip(reason)
-    return compile_core(tmp_path_factory.mktemp("android_core_classes"))
-
-
-@pytest.fixture(scope="session")
-def gl_classes(tmp_path_factory) -> Path:
-    """The core and android/gljogl (the JOGL binding) compiled; skips without JOGL."""
-    reason = missing_jogl()
-    if reason:
-        pytest.skip(reason)
-    return compile_gl_pipeline(tmp_path_factory.mktemp("gl_pipeline_classes"))
 
 
 @pytest.fixture(scope="session")

@@ -188,66 +188,45 @@ def test_emulate_cli_runs_a_sequence(bundle, chain, tmp_path):
     assert all(s["summary"]["frames"] == 2 for s in metrics["sequences"].values())
 
 
-def test_java_core_reads_verifies_and_self_tests_the_bundle(bundle, chain, tmp_path):
+def test_java_core_reads_verifies_and_self_tests_the_bundle(bundle, chain, java_core, tmp_path):
     """The Android core's bundle and golden contract on the family's bundle: hashes verified,
     every field read, the schedule accepted, the self-test over its golden frames passed."""
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "android"))
-    from java_harness import compile_core, missing_tools
-
-    reason = missing_tools()
-    if reason:
-        pytest.skip(reason)
-    java = compile_core(tmp_path / "classes")
-    assert java.tool("verify", str(bundle)) == ""
-    summary = json.loads(java.tool("read", str(bundle), str(tmp_path / "log")))
+    assert java_core.tool("verify", str(bundle)) == ""
+    summary = json.loads(java_core.tool("read", str(bundle), str(tmp_path / "log")))
     assert summary["schedule_problems"] == [] and summary["golden_inputs"] == list(chain["case"].inputs)
-    report = java.tool("selftest", str(bundle), str(tmp_path / "dump"), "0")
+    report = java_core.tool("selftest", str(bundle), str(tmp_path / "dump"), "0")
     assert report.strip().endswith("PASSED"), report
 
 
-def test_app_gl_pipeline_reproduces_the_golden_frames_on_mesa(bundle, chain, tmp_path):
+def test_app_gl_pipeline_reproduces_the_golden_frames_on_mesa(bundle, chain, gl_classes):
     """The Android app's GL frame pipeline (the phone's classes, through JOGL on Mesa) over the
     bundle's golden frames: every GL-produced tensor bit-exact, or within one code downstream of a float path
     (pow: fusesr's demodulation; tests/android/test_gl_pipeline.py)."""
-    import sys
+    from java_harness import run_gl_pipeline
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "android"))
-    from java_harness import compile_gl_pipeline, missing_jogl, run_gl_pipeline
-
-    reason = missing_jogl()
-    if reason:
-        pytest.skip(reason)
     frames = len(json.loads((bundle / "manifest.json").read_text())["golden"]["frames"])
-    tensors, values = run_gl_pipeline(compile_gl_pipeline(tmp_path / "classes"), bundle)
+    tensors, values = run_gl_pipeline(gl_classes, bundle)
     print(f"GL pipeline on the {chain['case'].family} bundle: {tensors} tensors, {values} values compared over {frames} golden frames")
     assert tensors == chain["case"].gl_tensors * frames  # the NPU input buffer and the display, every frame
 
 
-def test_a_bundle_of_the_shipped_checkpoint_passes_the_app_checks(chain, tmp_path):
+def test_a_bundle_of_the_shipped_checkpoint_passes_the_app_checks(chain, java_core, gl_classes, tmp_path):
     """The shipped checkpoint (its trained weights) exported on the case's small render: the Android
     core's verify, read and self-test, then the app's GL pipeline on Mesa."""
-    import sys
+    from java_harness import run_gl_pipeline
+
+    from mnss_kit.dataset.format import find_sequences, read_meta
 
     name = chain["case"].shipped
     if name is None:
         pytest.skip("no shipped checkpoint of this family")
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "android"))
-    from java_harness import compile_core, compile_gl_pipeline, missing_jogl, missing_tools, run_gl_pipeline
-
-    reason = missing_tools() or missing_jogl()
-    if reason:
-        pytest.skip(reason)
-    from mnss_kit.dataset.format import find_sequences, read_meta
 
     hr_w, hr_h = read_meta(find_sequences(chain["data"])[0]).hr_size
     bundle = tmp_path / name
     assert main(["export", name, "--out", str(bundle), "--data", str(chain["data"]), "--resolution", f"{hr_w}x{hr_h}",
                  "--no-progress"]) == 0
-    java = compile_core(tmp_path / "classes")
-    assert java.tool("verify", str(bundle)) == ""
-    assert java.tool("selftest", str(bundle), str(tmp_path / "dump"), "0").strip().endswith("PASSED")
+    assert java_core.tool("verify", str(bundle)) == ""
+    assert java_core.tool("selftest", str(bundle), str(tmp_path / "dump"), "0").strip().endswith("PASSED")
     frames = len(json.loads((bundle / "manifest.json").read_text())["golden"]["frames"])
-    tensors, values = run_gl_pipeline(compile_gl_pipeline(tmp_path / "gl"), bundle)
+    tensors, values = run_gl_pipeline(gl_classes, bundle)
     assert tensors == chain["case"].gl_tensors * frames and values > 0
