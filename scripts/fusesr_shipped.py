@@ -110,11 +110,12 @@ def exactness(e: Entry, data: Path) -> dict:
 def record_of(name: str) -> dict:
     from mnss_kit.model.checkpoint import read_record, resolve
 
-    record, _ = read_record(resolve(name))
+    path = resolve(name)
+    record, _ = read_record(path)
     training = record.get("training", {})
     return {"macs_per_pixel": record.get("macs_per_pixel"), "params": record.get("params"),
             "steps": training.get("steps"), "train_minutes": (training.get("wall_time_s") or 0) / 60,
-            "file_bytes": resolve(name).stat().st_size}
+            "file_bytes": path.stat().st_size}
 
 
 def run(args) -> dict:

@@ -121,8 +121,8 @@ def run_bench(request: BenchRequest) -> dict:
     devices = tuple(request.devices or device_names())
     scale = bench_scale(request)
     config, overrides = held_out_config(request.quick, scale) if request.data is None else (None, [])
-    models = request.models or default_models(scale)
-    wrong = [(m, s) for m, s in ((m, model_scale(m)) for m in models) if s != scale]
+    models = request.models or default_models(scale)  # the default ones are of this scale already
+    wrong = [(m, s) for m, s in ((m, model_scale(m)) for m in request.models or []) if s != scale]
     if wrong:
         raise UserError(f"{wrong[0][0]} is x{wrong[0][1]} but the bench is x{scale} (bench one scale at a time: --scale)")
     settings = Settings(quick=request.quick, scale=scale, data=str(request.data) if request.data else " ".join([config, *overrides]),
