@@ -1,5 +1,6 @@
-"""Charts from a bench document: quality against cost, fp32 and int8 points, baselines as reference
-lines, the Pareto front marked; and the int8 loss per model."""
+"""Charts from a bench document, one folder per scale (``x2/``, ``x4/``): quality against cost,
+fp32 and int8 points, baselines as reference lines, the Pareto front marked; and the int8 loss per
+model."""
 
 from __future__ import annotations
 
@@ -16,27 +17,35 @@ def _cpu_ms(record: dict) -> float | None:
     return (record.get("cpu_ms") or {}).get(CPU_RUNTIME)
 
 
-def chart_specs(doc: dict) -> list[tuple[str, str, str, callable]]:
+def chart_specs(section: dict) -> list[tuple[str, str, str, callable]]:
     """``(file stem, x label, y key, x of a record)`` of every chart."""
     specs = [("psnr_vs_macs", "MACs per output pixel", "psnr", lambda r: r["macs_per_pixel"]),
              ("psnr_vs_cpu_ms", f"NPU-stage CPU latency, {CPU_RUNTIME} (ms, median)", "psnr", _cpu_ms),
              ("if_ssim_vs_macs", "MACs per output pixel", "if_ssim", lambda r: r["macs_per_pixel"])]
-    for device in doc["settings"]["devices"]:
+    for device in section["settings"]["devices"]:
         specs.append((f"psnr_vs_ms_{device}", f"estimated frame ms on {device} (estimate)", "psnr",
                       lambda r, d=device: r["device_ms"].get(d)))
     return specs
 
 
 def write_charts(doc: dict, out_dir: Path) -> list[Path]:
-    """Every chart of :func:`chart_specs` and the int8-loss chart as PNG under ``out_dir``."""
+    """Every chart of every scale section of a bench document, as PNG under ``out_dir/<section>/``."""
+    from .run import sections
+
+    return [p for name, section in sections(doc) for p in write_section_charts(section, out_dir / name)]
+
+
+def write_section_charts(section: dict, out_dir: Path) -> list[Path]:
+    """Every chart of :func:`chart_specs` and the int8-loss chart of one scale section."""
     import matplotlib
 
     matplotlib.use("Agg")
     out_dir.mkdir(parents=True, exist_ok=True)
-    records = list(doc["records"].values())
-    suffix = " (quick run: shortened sequences)" if doc["settings"]["quick"] else ""
+    records = list(section["records"].values())
+    settings = section["settings"]
+    suffix = f" (x{settings['scale']}, {settings['data'].split()[0]}" + (", quick run: shortened sequences)" if settings["quick"] else ")")
     written = [_scatter(records, stem, xlabel, key, x_of, out_dir / f"{stem}.png", suffix)
-               for stem, xlabel, key, x_of in chart_specs(doc)]
+               for stem, xlabel, key, x_of in chart_specs(section)]
     written.append(_int8_loss(records, out_dir / "int8_loss.png", suffix))
     return written
 

@@ -16,8 +16,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--models", nargs="+", metavar="MODEL",
                         help="checkpoints or shipped names (default: every shipped checkpoint and runs/*/model.pt)")
     parser.add_argument("--data", type=Path, help="held-out data set (default: render test_x2, or tiny_test with --quick)")
-    parser.add_argument("--scale", type=int, help="upscaling factor benched: the models of that scale and a held-out set "
-                        "at it (default: the --data set's, or 2; built-in sets: test_x2, test_x4, tiny_test at any)")
+    parser.add_argument("--scale", type=int, help="bench only this upscaling factor: its models on a held-out set at it "
+                        "(default: the --data set's, or every scale that has a model; built-in sets: test_x2, test_x4, "
+                        "tiny_test at any)")
     parser.add_argument("--devices", nargs="+", metavar="NAME", help="device profiles (default: every shipped one)")
     parser.add_argument("--quick", action="store_true", help="a shortened run on small sequences (its charts say so)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -31,14 +32,15 @@ def run(args: argparse.Namespace) -> int:
         check_output(path, kind)
 
     from .charts import write_charts
-    from .run import BenchRequest, run_bench
+    from .run import BenchRequest, run_bench, sections
 
     doc = run_bench(BenchRequest(out=args.out, work=args.work, models=args.models, data=args.data, quick=args.quick,
                                  scale=args.scale, devices=args.devices, progress=not args.no_progress))
     written = write_charts(doc, charts)
-    for key, r in doc["records"].items():
-        cpu = (r.get("cpu_ms") or {}).get("xnnpack")
-        print(f"{key:28s} PSNR {r['psnr']:6.2f}  SSIM {r['ssim']:.4f}  IF-SSIM {r['if_ssim']:.4f}  "
-              f"MACs/px {r['macs_per_pixel']:8.0f}  " + (f"CPU {cpu:7.2f} ms" if cpu is not None else ""))
+    for section_name, section in sections(doc):
+        for key, r in section["records"].items():
+            cpu = (r.get("cpu_ms") or {}).get("xnnpack")
+            print(f"{section_name:3s} {key:28s} PSNR {r['psnr']:6.2f}  SSIM {r['ssim']:.4f}  IF-SSIM {r['if_ssim']:.4f}  "
+                  f"MACs/px {r['macs_per_pixel']:8.0f}  " + (f"CPU {cpu:7.2f} ms" if cpu is not None else ""))
     print(f"wrote {args.out} and {len(written)} charts in {charts}")
     return 0

@@ -1,7 +1,9 @@
 """The bench run: every model in fp32 and int8 and the baselines, quality against cost, into one JSON.
 
-Per model (shipped checkpoints, and every ``runs/*/model.pt`` a ladder config was trained into,
-at the bench's scale: one bench compares models of one upscaling factor on one held-out set):
+One bench file holds one section per upscaling factor (``benches["x2"]``, ``benches["x4"]``):
+each compares the models of that scale on one held-out set at it, with the baselines on the same
+frames.  By default every scale that has a shipped checkpoint or a trained run is benched.
+Per model (shipped checkpoints, and every ``runs/*/model.pt`` a ladder config was trained into):
 
 * quality on the held-out frames (``mnss-kit eval``'s loop): fp32, and int8 with the NPU stage
   quantized on the calibration data and run in LiteRT's reference kernels;
@@ -12,14 +14,15 @@ at the bench's scale: one bench compares models of one upscaling factor on one h
   milliseconds on every shipped device profile (``mnss-kit split``; estimates).
 
 The JSON is rewritten atomically after every model, so a killed run continues with the records
-it has; records made with other settings (another data set, ``--quick`` or not) are not reused.
+it has; a section made with other settings (another data set, ``--quick`` or not) is not reused,
+and sections of scales this run does not bench are kept.
 """
 
 from __future__ import annotations
 
 import logging
 import statistics
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from ..errors import UserError
@@ -27,13 +30,15 @@ from ..fileio import atomic_write_json, read_json
 from .records import record_key, record_problems
 
 log = logging.getLogger(__name__)
-FORMAT, VERSION = "mnss-kit-bench", 1
+FORMAT, VERSION = "mnss-kit-bench", 2
 BASELINES = ("bicubic", "taau")
+NOTE = ("quality on held-out frames; cpu_ms medians of interleaved runs on a shared machine (compare ratios "
+        "within one run); device_ms are estimates from the device profiles, not measurements")
 
 
 @dataclass(frozen=True)
 class Settings:
-    """What the numbers depend on; a bench file made with other settings is not resumed."""
+    """What the numbers of one section depend on; a section made with other settings is not resumed."""
 
     quick: bool
     scale: int  # upscaling factor of the data and of every model benched
@@ -56,31 +61,43 @@ class BenchRequest:
     models: list[str] | None = None  # checkpoint paths or shipped names (default: module docstring)
     data: Path | None = None  # held-out data set (default: render the settings' config into ``work``)
     quick: bool = False
-    scale: int | None = None  # default: the data's scale, or 2
+    scale: int | None = None  # only this scale (default: the data's scale, or every scale with a model)
     devices: list[str] | None = None  # device profiles (default: every shipped one)
     progress: bool = True
-    settings: Settings | None = field(default=None, init=False)
 
 
-def default_models(scale: int, runs: Path = Path("runs")) -> list[str]:
-    """The shipped checkpoints, then every trained run under ``runs``, of upscaling factor ``scale``."""
+def section_name(scale: int) -> str:
+    return f"x{scale}"
+
+
+def default_models(runs: Path = Path("runs")) -> list[str]:
+    """The shipped checkpoints, then every trained run under ``runs``."""
     from ..model.checkpoint import shipped_names
 
-    trained = sorted(str(p) for p in runs.glob("*/model.pt")) if runs.is_dir() else []
-    chosen = []
-    for name in [*shipped_names(), *trained]:
-        s = model_scale(name)
-        if s == scale:
-            chosen.append(name)
-        else:
-            log.info("bench at x%d: %s is x%s (mnss-kit bench --scale %s benches it)", scale, name, s, s)
-    return chosen
+    return [*shipped_names(), *(sorted(str(p) for p in runs.glob("*/model.pt")) if runs.is_dir() else [])]
 
 
 def model_scale(name: str) -> int:
     from ..model.checkpoint import read_record
 
     return int(read_record(name)[0]["scale"])
+
+
+def models_by_scale(request: BenchRequest) -> dict[int, list[str]]:
+    """The models of every scale benched: the requested models (or the default ones) grouped by
+    their scale; limited to the data's scale with ``--data`` and to ``--scale`` when given."""
+    only = bench_scale(request)
+    grouped: dict[int, list[str]] = {}
+    for name in request.models or default_models():
+        grouped.setdefault(model_scale(name), []).append(name)
+    if only is None:
+        return dict(sorted(grouped.items())) or {2: []}
+    for scale, names in grouped.items():
+        if scale != only and request.models:
+            raise UserError(f"{names[0]} is x{scale} but the bench is x{only} (leave out --scale and --data to bench every scale)")
+        if scale != only:
+            log.info("bench at x%d only: %s (x%d) left out", only, ", ".join(names), scale)
+    return {only: grouped.get(only, [])}
 
 
 def scale_overrides(scale: int) -> list[str]:
@@ -101,10 +118,11 @@ def held_out_config(quick: bool, scale: int) -> tuple[str, list[str]]:
     return name, []
 
 
-def bench_scale(request: BenchRequest) -> int:
-    """``request.scale``, which must be the data's when both are given; else the data's, else 2."""
+def bench_scale(request: BenchRequest) -> int | None:
+    """The one scale benched: ``request.scale``, which must be the data's when both are given, else
+    the data's; None when neither is given (every scale)."""
     if request.data is None:
-        return request.scale or 2
+        return request.scale
     from ..dataset import format as fmt
 
     data_scale = fmt.read_meta(fmt.find_sequences(request.data)[0]).scale
@@ -114,32 +132,27 @@ def bench_scale(request: BenchRequest) -> int:
 
 
 def run_bench(request: BenchRequest) -> dict:
-    """Bench every model of ``request``; returns the bench document (also written to ``request.out``)."""
+    """Bench every model of ``request`` at its scale; returns the bench document (also written to
+    ``request.out``)."""
     from ..split.device import device_names
 
-    preset = QUICK if request.quick else FULL
     devices = tuple(request.devices or device_names())
-    scale = bench_scale(request)
-    config, overrides = held_out_config(request.quick, scale) if request.data is None else (None, [])
-    models = request.models or default_models(scale)  # the default ones are of this scale already
-    wrong = [(m, s) for m, s in ((m, model_scale(m)) for m in request.models or []) if s != scale]
-    if wrong:
-        raise UserError(f"{wrong[0][0]} is x{wrong[0][1]} but the bench is x{scale} (bench one scale at a time: --scale)")
-    settings = Settings(quick=request.quick, scale=scale, data=str(request.data) if request.data else " ".join([config, *overrides]),
-                        max_frames=preset["max_frames"], latency_size=preset["latency_size"],
-                        latency_repeats=preset["latency_repeats"], emulated_frames=preset["emulated_frames"], devices=devices)
-    doc = _resume(request.out, settings)
-    data = request.data or _rendered(config, overrides, scale, request.work / "data", request.progress)
-    calibration = _calibration_data(request.work / "data", scale, request.progress)
-    steps = [None, *models]  # None: the baselines
+    plan = models_by_scale(request)
+    doc = _read_doc(request.out)
+    steps = [(scale, name) for scale, names in plan.items() for name in [None, *names]]  # None: the baselines
     if request.progress:
         from tqdm import tqdm
 
         steps = tqdm(steps, desc="bench", unit="model")
-    for name in steps:
+    prepared: dict[int, tuple] = {}
+    for scale, name in steps:
+        if scale not in prepared:
+            prepared[scale] = _prepare_section(doc, request, scale, devices)
+        section, data, calibration = prepared[scale]
+        records, settings = section["records"], settings_of(section)
         if name is None:
-            new = [] if all(f"{b}/baseline" in doc["records"] for b in BASELINES) else baseline_records(data, settings)
-        elif all(f"{_label(name)}/{p}" in doc["records"] for p in ("fp32", "int8")):
+            new = [] if all(f"{b}/baseline" in records for b in BASELINES) else baseline_records(data, settings)
+        elif all(f"{_label(name)}/{p}" in records for p in ("fp32", "int8")):
             continue
         else:
             new = model_records(name, data, calibration, settings, request.work)
@@ -147,25 +160,50 @@ def run_bench(request: BenchRequest) -> dict:
             problems = record_problems(record)
             if problems:
                 raise RuntimeError(f"bench record {record_key(record)}: {problems[0]}")
-            doc["records"][record_key(record)] = record
+            records[record_key(record)] = record
         atomic_write_json(request.out, doc)
     return doc
 
 
-def _resume(out: Path, settings: Settings) -> dict:
-    fresh = {"format": FORMAT, "version": VERSION, "settings": _plain(asdict(settings)), "records": {},
-             "note": "quality on held-out frames; cpu_ms medians of interleaved runs on a shared machine (compare "
-                     "ratios within one run); device_ms are estimates from the device profiles, not measurements"}
+def _prepare_section(doc: dict, request: BenchRequest, scale: int, devices: tuple[str, ...]) -> tuple[dict, Path, Path]:
+    """The section of ``scale`` in ``doc`` (resumed when its settings match), its held-out data and
+    its calibration data (both rendered into ``request.work`` once)."""
+    preset = QUICK if request.quick else FULL
+    config, overrides = held_out_config(request.quick, scale) if request.data is None else (None, [])
+    settings = Settings(quick=request.quick, scale=scale, devices=devices,
+                        data=str(request.data) if request.data else " ".join([config, *overrides]),
+                        max_frames=preset["max_frames"], latency_size=preset["latency_size"],
+                        latency_repeats=preset["latency_repeats"], emulated_frames=preset["emulated_frames"])
+    name, plain = section_name(scale), _plain(asdict(settings))
+    kept = doc["benches"].get(name)
+    if kept is not None and kept.get("settings") == plain:
+        log.info("resuming %s of %s: %d record(s) kept", name, request.out, len(kept["records"]))
+    else:
+        if kept is not None:
+            log.info("%s of %s was made with other settings; starting it afresh", name, request.out)
+        doc["benches"][name] = {"settings": plain, "records": {}}
+    data = request.data or _rendered(config, overrides, scale, request.work / "data", request.progress)
+    return doc["benches"][name], data, _calibration_data(request.work / "data", scale, request.progress)
+
+
+def _read_doc(out: Path) -> dict:
+    """The bench file at ``out``, or a fresh document."""
     if not out.is_file():
-        return fresh
+        return {"format": FORMAT, "version": VERSION, "note": NOTE, "benches": {}}
     doc = read_json(out)
     if not isinstance(doc, dict) or doc.get("format") != FORMAT or doc.get("version") != VERSION:
         raise UserError(f"{out}: not a bench file of this version (remove it or give another --out)")
-    if doc.get("settings") != fresh["settings"]:
-        log.info("%s was made with other settings; starting afresh", out)
-        return fresh
-    log.info("resuming %s: %d record(s) kept", out, len(doc["records"]))
     return doc
+
+
+def settings_of(section: dict) -> Settings:
+    raw = section["settings"]
+    return Settings(**{**raw, "latency_size": tuple(raw["latency_size"]), "devices": tuple(raw["devices"])})
+
+
+def sections(doc: dict) -> list[tuple[str, dict]]:
+    """``(name, section)`` of every scale in a bench document, smallest scale first."""
+    return sorted(doc["benches"].items(), key=lambda item: item[1]["settings"]["scale"])
 
 
 def _plain(value):

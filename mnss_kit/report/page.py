@@ -17,7 +17,7 @@ from pathlib import Path
 from ..errors import UserError
 from ..fileio import atomic_directory, atomic_write_text, check_format, read_json
 
-BENCH_FORMAT, STRESS_FORMAT, SIZE_FORMAT = ("mnss-kit-bench", 1), ("mnss-kit-stress", 1), ("mnss-kit-size", 1)
+BENCH_FORMAT, STRESS_FORMAT, SIZE_FORMAT = ("mnss-kit-bench", 2), ("mnss-kit-stress", 1), ("mnss-kit-size", 1)
 STYLE = """body{font-family:sans-serif;margin:2em;max-width:1200px;color:#222}
 table{border-collapse:collapse;margin:0.5em 0 1em}td,th{border:1px solid #bbb;padding:2px 6px;font-size:13px}
 th{background:#eee}td.n{text-align:right;font-family:monospace}img{max-width:100%;margin:4px 0}
@@ -32,7 +32,7 @@ def build_report(bench: Path | None, stress: Path | None, out: Path, overwrite: 
     with atomic_directory(out, overwrite=overwrite) as staging:
         body = []
         if docs["bench"] is not None:
-            body += bench_section(docs["bench"], _copy_images(bench.parent / "charts", staging, "bench"))
+            body += bench_sections(docs["bench"], bench.parent / "charts", staging)
         if docs["stress"] is not None:
             body += stress_section(docs["stress"], stress.parent, staging)
         for i, (path, doc) in enumerate(size_docs):
@@ -82,19 +82,30 @@ def _images(paths: list[str], alt: str) -> list[str]:
     return [f'<div><img src="{_e(p)}" alt="{_e(alt)} {_e(Path(p).stem)}"></div>' for p in paths]
 
 
-def bench_section(doc: dict, charts: list[str]) -> list[str]:
-    devices = doc["settings"].get("devices", [])
-    quick = " (quick run: shortened sequences)" if doc["settings"].get("quick") else ""
+def bench_sections(doc: dict, charts: Path, staging: Path) -> list[str]:
+    """One bench table and its charts per scale section (charts from ``charts/<section>/``)."""
+    from ..bench.run import sections
+
+    out = ["<h2>Bench</h2>", f"<p class=note>{_e(doc.get('note', ''))}</p>",
+           "<p class=estimate>Device milliseconds are estimates from the device profiles, not measurements.</p>"]
+    for name, section in sections(doc):
+        out += bench_section(name, section, _copy_images(charts / name, staging, f"bench/{name}"))
+    return out
+
+
+def bench_section(name: str, section: dict, charts: list[str]) -> list[str]:
+    settings = section["settings"]
+    devices = settings.get("devices", [])
+    quick = " (quick run: shortened sequences)" if settings.get("quick") else ""
     header = ["model", "family", "precision", "PSNR", "SSIM", "IF-SSIM", "MACs/pixel", "CPU ms (xnnpack)"]
     header += [f'<span class=estimate>{_e(d)} ms (estimate)</span>' for d in devices]
     rows = []
-    for r in doc["records"].values():
+    for r in section["records"].values():
         cpu = (r.get("cpu_ms") or {}).get("xnnpack")
         rows.append([_e(r["name"]), _e(r["family"]), _e(r["precision"]), _num(r["psnr"]), _num(r["ssim"], 4),
                      _num(r["if_ssim"], 4), _num(r["macs_per_pixel"], 0), _num(cpu)]
                     + [_num((r.get("device_ms") or {}).get(d)) for d in devices])
-    return [f"<h2>Bench{_e(quick)}</h2>", f"<p class=note>{_e(doc.get('note', ''))}</p>",
-            "<p class=estimate>Device milliseconds are estimates from the device profiles, not measurements.</p>",
+    return [f"<h3 id=bench-{_e(name)}>{_e(name)} on {_e(settings.get('data', ''))}{_e(quick)}</h3>",
             table(header, rows), *_images(charts, "bench chart")]
 
 

@@ -63,40 +63,52 @@ def fake_measurements(monkeypatch, tmp_path):
     return calls
 
 
+def _keys(doc, section="x2"):
+    return set(doc["benches"][section]["records"])
+
+
 def test_a_killed_run_resumes_with_the_records_it_has(fake_measurements, tmp_path):
     out = tmp_path / "bench.json"
     request = dict(out=out, work=tmp_path / "work", devices=["snapdragon_8_gen_1"], quick=True, progress=False)
     with pytest.raises(KeyboardInterrupt):
         bench_run.run_bench(bench_run.BenchRequest(models=["a", "crash"], **request))
-    assert set(json.loads(out.read_text())["records"]) == {"bicubic/baseline", "taau/baseline", "a/fp32", "a/int8"}
+    assert _keys(json.loads(out.read_text())) == {"bicubic/baseline", "taau/baseline", "a/fp32", "a/int8"}
     fake_measurements.clear()
     doc = bench_run.run_bench(bench_run.BenchRequest(models=["a", "b"], **request))
     assert fake_measurements == ["b"]  # the baselines and model a were kept
-    assert set(doc["records"]) == {"bicubic/baseline", "taau/baseline", "a/fp32", "a/int8", "b/fp32", "b/int8"}
+    assert _keys(doc) == {"bicubic/baseline", "taau/baseline", "a/fp32", "a/int8", "b/fp32", "b/int8"}
     fake_measurements.clear()
     bench_run.run_bench(bench_run.BenchRequest(models=["a"], **{**request, "quick": False}))
     assert fake_measurements == ["baselines", "a"]  # other settings: nothing reused
 
 
-def test_one_bench_is_one_scale(fake_measurements, tmp_path, monkeypatch):
+def test_every_scale_gets_its_own_section_in_one_file(fake_measurements, tmp_path, monkeypatch):
     from mnss_kit.errors import UserError
 
     request = dict(out=tmp_path / "bench.json", work=tmp_path / "work", devices=["snapdragon_8_gen_1"], quick=True, progress=False)
-    with pytest.raises(UserError, match=r"model_x4 is x4 but the bench is x2 \(bench one scale at a time: --scale\)"):
-        bench_run.run_bench(bench_run.BenchRequest(models=["a", "model_x4"], **request))
-    doc = bench_run.run_bench(bench_run.BenchRequest(models=["model_x4"], scale=4, **request))
-    assert doc["settings"]["scale"] == 4 and doc["settings"]["data"] == "tiny_test scale=4 jitter=halton"
+    doc = bench_run.run_bench(bench_run.BenchRequest(models=["a", "model_x4", "b"], **request))
+    assert [name for name, _ in bench_run.sections(doc)] == ["x2", "x4"]
+    assert _keys(doc, "x4") == {"bicubic/baseline", "taau/baseline", "model_x4/fp32", "model_x4/int8"}
+    assert _keys(doc, "x2") == {"bicubic/baseline", "taau/baseline", "a/fp32", "a/int8", "b/fp32", "b/int8"}
+    assert doc["benches"]["x4"]["settings"]["data"] == "tiny_test scale=4 jitter=halton"
+    assert doc["benches"]["x2"]["settings"]["data"] == "tiny_test"
+    with pytest.raises(UserError, match=r"model_x4 is x4 but the bench is x2 \(leave out --scale and --data"):
+        bench_run.run_bench(bench_run.BenchRequest(models=["a", "model_x4"], scale=2, **request))
+    fake_measurements.clear()
     monkeypatch.setattr("mnss_kit.model.checkpoint.shipped_names", lambda: ["a", "model_x4"])
-    assert bench_run.default_models(4, runs=tmp_path / "no_runs") == ["model_x4"]
-    assert bench_run.default_models(2, runs=tmp_path / "no_runs") == ["a"]
+    doc = bench_run.run_bench(bench_run.BenchRequest(scale=4, **request))  # the default models of x4 only
+    assert fake_measurements == [] and "x2" in doc["benches"]  # x4 resumed, the x2 section kept
+    assert bench_run.models_by_scale(bench_run.BenchRequest(**request)) == {2: ["a"], 4: ["model_x4"]}
 
 
-def test_charts_are_drawn_from_a_bench_document(tmp_path):
+def test_charts_are_drawn_per_scale_from_a_bench_document(tmp_path):
     records = {f"{n}/{p}": good_record(name=n, precision=p, psnr=30 + i + (0.1 if p == "fp32" else 0.0), macs_per_pixel=1000.0 * (i + 1))
                for i, n in enumerate(("small", "large")) for p in ("fp32", "int8")}
     records["taau/baseline"] = good_record(name="taau", family="baseline", precision="baseline", cpu_ms=None, device_ms={})
-    doc = {"settings": {"quick": True, "devices": ["snapdragon_8_gen_1"]}, "records": records}
+    settings = {"quick": True, "devices": ["snapdragon_8_gen_1"], "data": "tiny_test"}
+    doc = {"benches": {"x4": {"settings": {**settings, "scale": 4}, "records": records},
+                       "x2": {"settings": {**settings, "scale": 2}, "records": records}}}
     written = write_charts(doc, tmp_path / "charts")
-    assert {p.name for p in written} == {"psnr_vs_macs.png", "psnr_vs_cpu_ms.png", "if_ssim_vs_macs.png",
-                                         "psnr_vs_ms_snapdragon_8_gen_1.png", "int8_loss.png"}
+    stems = {"psnr_vs_macs.png", "psnr_vs_cpu_ms.png", "if_ssim_vs_macs.png", "psnr_vs_ms_snapdragon_8_gen_1.png", "int8_loss.png"}
+    assert {f"{p.parent.name}/{p.name}" for p in written} == {f"{s}/{n}" for s in ("x2", "x4") for n in stems}
     assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in written)

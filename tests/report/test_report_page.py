@@ -40,13 +40,14 @@ def _record(name, family, precision, psnr, macs):
 def _bench(root):
     records = [_record("bicubic", "baseline", "baseline", 28.0, 0.0), _record("m", "mnss", "fp32", 31.0, 900.0),
                _record("m", "mnss", "int8", 30.8, 900.0)]
-    doc = {"format": "mnss-kit-bench", "version": 1, "note": "synthetic", "records": {f"{r['name']}/{r['precision']}": r for r in records},
-           "settings": {"quick": True, "devices": ["phone_a"]}}
+    section = {"records": {f"{r['name']}/{r['precision']}": r for r in records},
+               "settings": {"quick": True, "devices": ["phone_a"], "scale": 2, "data": "tiny_test"}}
+    doc = {"format": "mnss-kit-bench", "version": 2, "note": "synthetic", "benches": {"x2": section}}
     atomic_write_json(root / "bench.json", doc)
     from PIL import Image
 
-    (root / "charts").mkdir()
-    Image.new("RGB", (40, 30), (10, 120, 200)).save(root / "charts" / "psnr_vs_macs.png")
+    (root / "charts" / "x2").mkdir(parents=True)
+    Image.new("RGB", (40, 30), (10, 120, 200)).save(root / "charts" / "x2" / "psnr_vs_macs.png")
     return root / "bench.json"
 
 
@@ -109,15 +110,15 @@ def test_report_loads_in_chromium_with_every_image_and_no_console_error(tmp_path
     assert "Model size for held-out held" in text and "Chosen: <b>big</b>" in text and "1.00 dB below big" in text
     record, console = _open(page, tmp_path)
     sources = [src for src, _ in record["images"]]
-    assert "bench/psnr_vs_macs.png" in sources and "stress/plots/camera_cut.png" in sources
+    assert "bench/x2/psnr_vs_macs.png" in sources and "stress/plots/camera_cut.png" in sources
     assert any(src.startswith("stress/crops/camera_cut_") for src in sources) and "size/0/size.png" in sources
     assert all(ok for _, ok in record["images"]), record["images"]
     assert record["errors"] == [] and console == [], (record["errors"], console)
 
     # the same check sees a missing image: it is not a check that always passes
-    (tmp_path / "report" / "bench" / "psnr_vs_macs.png").unlink()
+    (tmp_path / "report" / "bench" / "x2" / "psnr_vs_macs.png").unlink()
     record, _ = _open(page, tmp_path)
-    assert dict(record["images"])["bench/psnr_vs_macs.png"] is False
+    assert dict(record["images"])["bench/x2/psnr_vs_macs.png"] is False
     assert record["errors"]
 
 
