@@ -9,8 +9,9 @@ from __future__ import annotations
 from .family import Family
 from .fusesr import FUSESR_FAMILY
 from .mnss import MNSS_FAMILY
+from .ntaau import NTAAU_FAMILY
 
-FAMILIES: dict[str, Family] = {"mnss": MNSS_FAMILY, "fusesr": FUSESR_FAMILY}
+FAMILIES: dict[str, Family] = {"mnss": MNSS_FAMILY, "fusesr": FUSESR_FAMILY, "ntaau": NTAAU_FAMILY}
 
 
 def family_named(name: str) -> Family:

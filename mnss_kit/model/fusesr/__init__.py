@@ -2,7 +2,6 @@
 
     config.py    the ``model:`` section (:class:`~.config.FuseSRConfig`)
     net.py       the torch model and its stages: warp, demodulate, encode, unshuffle, backbone, remodulate
-    loss.py      the training loss
     costs.py     fixed-function MACs per stage
     gpu_plan.py  the bundle's GPU side: passes, resources, weight blocks, per-frame schedule
 """
@@ -21,9 +20,9 @@ def _build(config: FuseSRConfig):
 
 
 def _loss(config: FuseSRConfig, train):
-    from .loss import FuseSRLoss
+    from ..losses import DisplayLoss
 
-    return FuseSRLoss(config.scale, train.perceptual_weight, train.flicker_weight)
+    return DisplayLoss(config.scale, train.perceptual_weight, train.flicker_weight)
 
 
 def _gpu_plan(config: FuseSRConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:

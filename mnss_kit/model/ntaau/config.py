@@ -1,0 +1,35 @@
+"""The ``model:`` section of an ntaau-family config."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+SCALES = (2, 3, 4)
+STEER_CHANNELS = 6  # per HR pixel: history gain, sample gain, box widening, YCoCg correction (3)
+
+
+@dataclass
+class NTAAUConfig:
+    """A network steering a TAAU accumulation (``model.taau``): per HR pixel it scales the history
+    and sample weights, widens or narrows the clamp box and adds a correction of at most
+    ``correction_bound`` per YCoCg channel.  Zero net outputs are the toolkit's TAAU."""
+
+    family: Literal["ntaau"] = "ntaau"
+    scale: int = 2
+    width: int = 16  # steering net channels at LR
+    layers: int = 3  # 3x3 convs, >= 2
+    correction_bound: float = 0.1  # |correction| per YCoCg channel; 0: the net only steers the blend
+    alpha: float = 0.1  # TAAU's converged blend factor (model.taau.TAAUParams)
+
+    def __post_init__(self):
+        if self.scale not in SCALES:
+            raise ValueError(f"scale must be one of {list(SCALES)}, got {self.scale}")
+        if self.layers < 2 or self.width < 2:
+            raise ValueError("layers and width must be >= 2")
+        if not 0.0 <= self.correction_bound <= 0.5:
+            raise ValueError(f"correction_bound must be in [0, 0.5], got {self.correction_bound}")
+
+    def npu_input_channels(self) -> int:
+        """LR colour (3), clamped history (3 s^2), history weight (s^2) and clamp distance (s^2)."""
+        return 3 + 5 * self.scale * self.scale

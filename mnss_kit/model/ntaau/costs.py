@@ -1,0 +1,20 @@
+"""Fixed-function MACs per HR output pixel of each ntaau stage (unit costs in ``model.macs``)."""
+
+from __future__ import annotations
+
+from ..mac_units import BILINEAR
+
+TRANSCENDENTAL = 4  # one exp, sigmoid or tanh, counted as a few multiply-adds
+BICUBIC = 16  # one bicubic sample of one channel: sixteen weighted taps
+
+
+def fixed_macs(c) -> dict[str, float]:
+    """Fixed-function MACs per HR output pixel of each stage of an ntaau model with config ``c``."""
+    lr = 1.0 / (c.scale * c.scale)  # LR elements per HR pixel
+    reproject = 2 * BILINEAR + 2 + 4 * BILINEAR + 3 * 5 + 2 * 2 + TRANSCENDENTAL  # motion up, warp 3+1, blur undone, weight
+    samples = 9 * (3 + 1 + 1) + 2 * 3 * TRANSCENDENTAL * lr  # 9 taps of colour and weight; separable Gaussian
+    return {
+        "taau_gather": reproject + samples + 3 * BICUBIC + 9 + 9 * 3 * 2 * lr + 3 + 6 + 3,  # bicubic, YCoCg, box, features
+        "steer": 0.0,
+        "taau_accumulate": 6 * TRANSCENDENTAL + 3 * 4 + 6 + 3 * 3 + 4 + 6,  # activations, box, clamp, blend, RGB
+    }

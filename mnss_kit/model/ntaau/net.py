@@ -1,0 +1,139 @@
+"""Neural TAAU: a small network steers the toolkit's TAAU accumulation instead of painting pixels.
+
+Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``
+(``model.taau`` defines every step of the accumulation):
+
+    taau_gather      (gpu)  TAAU's inputs: the previous output and its weight reprojected
+                            (bilinear warp, blur undone, zero weight off-screen and after
+                            a reset), the Gaussian mean of the nearby jittered samples, the
+                            jitter-aware bicubic frame and the 3x3 LR clamp box; and the
+                            steering features at LR: the LR colour, the clamped history, its
+                            weight / (1/alpha - 1) and the clamp distance (the HR ones
+                            pixel-unshuffled)
+    steer            (npu)  3x3 convs at LR, pixel shuffle -> 6 raw values per HR pixel
+    taau_accumulate  (gpu)  history gain 2 sigmoid(a), sample gain 2 sigmoid(b), box widening
+                            tanh(c) / 2, correction bound * tanh(d) (YCoCg); TAAU's blend
+                            with them
+
+A fresh net outputs zeros, which is TAAU itself: training starts at the baseline, and the net's
+reach beyond it is bounded (a correction of at most ``correction_bound`` per channel).
+
+State: ``history`` (N,3,H,W) the previous output (RGB), ``weight`` (N,1,H,W) its accumulated
+sample weight.  A reset frame (camera cut, first frame) gives the history zero weight.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from ...errors import UserError
+from ..blocks import conv_stack
+from ..taau import Steer, TAAUInputs, TAAUParams, blend, taau_inputs
+from .config import STEER_CHANNELS, NTAAUConfig
+
+STAGE_ORDER = ("taau_gather", "steer", "taau_accumulate")
+FRAME_SHAPES = {"color": 3, "motion": 2}
+
+
+class Gather(nn.Module):
+    """TAAU's inputs and the steering features (no weights)."""
+
+    placement = "gpu"
+
+    def __init__(self, scale: int, params: TAAUParams):
+        super().__init__()
+        self.scale, self.params = scale, params
+
+    def forward(self, color, jitter, motion, reset, state):
+        """-> (TAAUInputs, features (N, 3 + 5 s^2, h, w))."""
+        inputs = taau_inputs(color, jitter, motion, reset, state, self.scale, self.params)
+        clamped = torch.minimum(torch.maximum(inputs.history, inputs.lo), inputs.hi)
+        distance = (inputs.history - clamped).abs().sum(dim=1, keepdim=True)
+        weight = inputs.history_weight / self.params.max_weight
+        hr = torch.cat([clamped, weight, distance], dim=1)
+        return inputs, torch.cat([color, F.pixel_unshuffle(hr, self.scale)], dim=1)
+
+
+class SteerNet(nn.Module):
+    """The NPU part: Conv2d (bias), ReLU, PixelShuffle; fx-traceable.
+
+    ``forward(features)``: (N, 3 + 5 s^2, h, w) -> raw steering (N, 6, H, W)."""
+
+    placement = "npu"
+
+    def __init__(self, scale: int, c_in: int, width: int, layers: int):
+        super().__init__()
+        self.body = conv_stack(c_in, width, layers, STEER_CHANNELS * scale * scale)
+        self.shuffle = nn.PixelShuffle(scale)
+
+    def forward(self, features):
+        return self.shuffle(self.body(features))
+
+
+class Accumulate(nn.Module):
+    """The raw steering mapped to its ranges, and TAAU's blend with it."""
+
+    placement = "gpu"
+
+    def __init__(self, params: TAAUParams, correction_bound: float):
+        super().__init__()
+        self.params, self.correction_bound = params, correction_bound
+
+    def forward(self, inputs: TAAUInputs, raw):
+        steer = Steer(history_gain=2.0 * torch.sigmoid(raw[:, 0:1]), sample_gain=2.0 * torch.sigmoid(raw[:, 1:2]),
+                      box_widen=0.5 * torch.tanh(raw[:, 2:3]), correction=self.correction_bound * torch.tanh(raw[:, 3:6]))
+        return blend(inputs, self.params, steer)
+
+
+class NTAAU(nn.Module):
+    """``model(frame, state) -> (output, aux, state)``; see the module docstring and docs/architecture.md."""
+
+    def __init__(self, config: NTAAUConfig):
+        super().__init__()
+        self.config = config
+        self.scale = s = config.scale
+        self.params = TAAUParams(alpha=config.alpha)
+        self.taau_gather = Gather(s, self.params)
+        self.steer = SteerNet(s, config.npu_input_channels(), config.width, config.layers)
+        self.taau_accumulate = Accumulate(self.params, config.correction_bound)
+
+    def stages(self) -> list[tuple[str, nn.Module, str]]:
+        return [(n, getattr(self, n), getattr(self, n).placement) for n in STAGE_ORDER]
+
+    def initial_state(self, frame: dict) -> dict:
+        color = frame["color"]
+        n, _, h, w = color.shape
+        return {"history": color.new_zeros(n, 3, h * self.scale, w * self.scale),
+                "weight": color.new_zeros(n, 1, h * self.scale, w * self.scale)}
+
+    def forward(self, frame: dict, state: dict | None = None):
+        """One frame: color (N,3,h,w), motion (N,2,h,w), jitter (N,2), optional reset (N,).
+        Returns output (N,3,H,W), aux {taau: the unsteered blend of the same inputs}, next state."""
+        color, motion, jitter = _check_frame(frame)
+        n = color.shape[0]
+        reset = frame.get("reset")
+        reset = color.new_zeros(n) if reset is None else reset.to(color)
+        if state is None:
+            state, reset = self.initial_state(frame), color.new_ones(n)
+        cut = (reset > 0.5).view(n, 1, 1, 1)  # a cut history may hold anything, NaN included
+        state = {k: torch.where(cut, 0.0, v) for k, v in state.items()}
+        inputs, features = self.taau_gather(color, jitter, motion, reset, state)
+        output, next_state = self.taau_accumulate(inputs, self.steer(features))
+        with torch.no_grad():
+            taau, _ = blend(inputs, self.params)
+        return output, {"taau": taau}, next_state
+
+
+def _check_frame(frame: dict):
+    missing = [k for k in (*FRAME_SHAPES, "jitter") if k not in frame]
+    if missing:
+        raise UserError(f"model input lacks {', '.join(missing)}")
+    n, _, h, w = frame["color"].shape
+    for key, channels in FRAME_SHAPES.items():
+        if tuple(frame[key].shape) != (n, channels, h, w):
+            raise UserError(f"model input '{key}' has shape {tuple(frame[key].shape)}, expected {(n, channels, h, w)}")
+    if tuple(frame["jitter"].shape) != (n, 2):
+        raise UserError(f"model input 'jitter' has shape {tuple(frame['jitter'].shape)}, expected {(n, 2)}")
+    return frame["color"], frame["motion"], frame["jitter"]

@@ -1,0 +1,215 @@
+"""Temporal anti-aliasing upsampling (TAAU), in torch: the toolkit's baseline and the base the
+``ntaau`` family steers.
+
+TAAU in the style of Karis 2014 (Unreal Engine 4): jittered samples are accumulated into an HR
+history that is reprojected with the upsampled motion and clamped to the current frame's
+neighbourhood in YCoCg.  Per HR pixel, with ``W`` the reprojected history weight and ``w`` the
+weight of this frame's nearby jittered samples (a Gaussian of their distance to the pixel
+centre, ``sample_sigma`` HR pixels, 1 when a sample lands exactly on the pixel)::
+
+    out = (W * clamp(history) + w * samples + p * spatial) / (W + w + p)
+    W'  = min(W + w, 1 / alpha - 1)
+
+so a pixel hit exactly by a sample after convergence blends with ``alpha`` (0.1), pixels far
+from any sample blend less, and a fresh history (reset, disocclusion, off-screen) takes the
+samples as they come.  ``spatial`` is the jitter-aware bicubic frame with a small prior weight
+``p``, which fills pixels no sample has reached yet.
+
+A :class:`Steer` scales ``W`` and ``w`` per pixel, widens or narrows the clamp box and adds a
+bounded correction; :data:`NEUTRAL` (all factors 1, no widening, no correction) is TAAU itself,
+so a steering net whose outputs are zero starts as exactly this baseline.
+
+Reprojection is bilinear.  Each bilinear fetch blurs, and under slow sub-pixel motion the blur
+compounds frame after frame (Karis fetches history with a Catmull-Rom filter for this reason),
+so the fetched history is sharpened by the inverse of that blur to first order and its weight
+scaled by ``exp(-blur_penalty * (fx(1-fx) + fy(1-fy)))`` for fractional offsets ``fx, fy``.
+Defaults were tuned on static, slow-pan, whole-pixel-pan and moving-object synthetic sequences.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+import torch.nn.functional as F
+
+from .layers import offscreen, upsample_motion, warp_bilinear
+
+
+@dataclass(frozen=True)
+class TAAUParams:
+    alpha: float = 0.1
+    sample_sigma: float = 0.35
+    prior_weight: float = 0.05
+    clip: str = "minmax"  # or "variance": mean +- gamma std
+    gamma: float = 1.25
+    sharpen: bool = True
+    blur_penalty: float = 1.5
+
+    def __post_init__(self):
+        if self.clip not in ("minmax", "variance"):
+            raise ValueError(f"clip must be 'minmax' or 'variance', got {self.clip!r}")
+
+    @property
+    def max_weight(self) -> float:
+        return 1.0 / self.alpha - 1.0
+
+
+@dataclass
+class Steer:
+    """Per-HR-pixel steering of one TAAU step, each ``(N, 1 or 3, H, W)`` or a scalar."""
+
+    history_gain: torch.Tensor | float = 1.0  # multiplies the reprojected history weight W
+    sample_gain: torch.Tensor | float = 1.0  # multiplies this frame's sample weight w
+    box_widen: torch.Tensor | float = 0.0  # clamp box [lo - e (hi - lo), hi + e (hi - lo)]
+    correction: torch.Tensor | float = 0.0  # added to the blended colour (YCoCg)
+
+
+NEUTRAL = Steer()
+
+
+def rgb_to_ycocg(x: torch.Tensor) -> torch.Tensor:
+    """``(N, 3, H, W)`` RGB -> YCoCg (luma, orange and green chroma)."""
+    r, g, b = x.unbind(1)
+    return torch.stack([0.25 * r + 0.5 * g + 0.25 * b, 0.5 * r - 0.5 * b, -0.25 * r + 0.5 * g - 0.25 * b], dim=1)
+
+
+def ycocg_to_rgb(x: torch.Tensor) -> torch.Tensor:
+    y, co, cg = x.unbind(1)
+    return torch.stack([y + co - cg, y + cg, y - co - cg], dim=1)
+
+
+def nearest_up(x: torch.Tensor, s: int) -> torch.Tensor:
+    return x.repeat_interleave(s, dim=2).repeat_interleave(s, dim=3)
+
+
+def bicubic_upsample(color: torch.Tensor, jitter: torch.Tensor, scale: int) -> torch.Tensor:
+    """Jitter-aware bicubic (A = -0.75, clamp-to-edge), not clamped: each LR sample placed where it
+    was shaded (pixel centre + jitter).  ``(N, C, h, w)``, ``(N, 2)`` -> ``(N, C, h*s, w*s)``."""
+    n, _, h, w = color.shape
+    s = scale
+    # HR pixel centres in LR pixel units; the LR texel grid is shifted by the jitter.
+    xs = (torch.arange(w * s, dtype=color.dtype) + 0.5) / s
+    ys = (torch.arange(h * s, dtype=color.dtype) + 0.5) / s
+    jx = jitter[:, 0].to(color.dtype).view(n, 1, 1)
+    jy = jitter[:, 1].to(color.dtype).view(n, 1, 1)
+    gx = 2.0 * (xs.view(1, 1, -1) - jx) / w - 1.0
+    gy = 2.0 * (ys.view(1, -1, 1) - jy) / h - 1.0
+    grid = torch.stack(torch.broadcast_tensors(gx, gy), dim=-1)
+    return F.grid_sample(color, grid, mode="bicubic", padding_mode="border", align_corners=False)
+
+
+def nearby_samples(current: torch.Tensor, jitter: torch.Tensor, scale: int, sigma: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """Gaussian-weighted mean of the 3x3 LR samples around each HR pixel and their total weight.
+
+    Returns ``(N, 3, H, W)`` colour and ``(N, 1, H, W)`` weight.  Sample ``(i, j)`` sits at HR
+    position ``s * (j + 0.5 + jx), s * (i + 0.5 + jy)``.
+    """
+    n, c, h, w = current.shape
+    s = scale
+    padded = F.pad(current, (1, 1, 1, 1), mode="replicate")
+    hr_x = torch.arange(w * s, dtype=current.dtype)
+    hr_y = torch.arange(h * s, dtype=current.dtype)
+    jx = jitter[:, 0].to(current.dtype).view(n, 1)
+    jy = jitter[:, 1].to(current.dtype).view(n, 1)
+    inv = -0.5 / (sigma**2)
+    total = current.new_zeros(n, 1, h * s, w * s)
+    acc = current.new_zeros(n, c, h * s, w * s)
+    lr_y = torch.div(hr_y, s, rounding_mode="floor") + 0.5
+    lr_x = torch.div(hr_x, s, rounding_mode="floor") + 0.5
+    for dy in (-1, 0, 1):
+        # the Gaussian is separable: weight = wy(row) * wx(column)
+        wy = torch.exp(inv * (((lr_y + dy).view(1, -1) + jy) * s - (hr_y + 0.5)) ** 2).view(n, 1, -1, 1)
+        for dx in (-1, 0, 1):
+            wx = torch.exp(inv * (((lr_x + dx).view(1, -1) + jx) * s - (hr_x + 0.5)) ** 2).view(n, 1, 1, -1)
+            wgt = wy * wx
+            shifted = padded[:, :, 1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w]
+            acc = acc + wgt * nearest_up(shifted, s)
+            total = total + wgt
+    return acc / total.clamp(min=1e-12), total
+
+
+def neighbourhood_box(current: torch.Tensor, scale: int, params: TAAUParams) -> tuple[torch.Tensor, torch.Tensor]:
+    """Per-HR-pixel colour box ``(lo, hi)``, each ``(N, 3, H, W)``, from the 3x3 LR neighbourhood."""
+    padded = F.pad(current, (1, 1, 1, 1), mode="replicate")
+    if params.clip == "minmax":
+        hi = F.max_pool2d(padded, 3, stride=1)
+        lo = -F.max_pool2d(-padded, 3, stride=1)
+    else:
+        mean = F.avg_pool2d(padded, 3, stride=1)
+        std = (F.avg_pool2d(padded * padded, 3, stride=1) - mean * mean).clamp(min=0).sqrt()
+        lo, hi = mean - params.gamma * std, mean + params.gamma * std
+    return nearest_up(lo, scale), nearest_up(hi, scale)
+
+
+def undo_bilinear_blur(image: torch.Tensor, spread: torch.Tensor) -> torch.Tensor:
+    """First-order inverse of the blur a bilinear fetch adds.
+
+    A fetch at fractional offset ``f`` averages two texels with variance ``f (1 - f)`` per axis;
+    subtracting half that variance times the second derivative (3-tap) restores the low
+    frequencies, so repeated reprojection under slow motion does not smear the history.
+    ``spread`` is ``(N, 2, H, W)``: ``f (1 - f)`` in x and y.
+    """
+    p = F.pad(image, (1, 1, 1, 1), mode="replicate")
+    centre = p[:, :, 1:-1, 1:-1]
+    dxx = p[:, :, 1:-1, :-2] + p[:, :, 1:-1, 2:] - 2.0 * centre
+    dyy = p[:, :, :-2, 1:-1] + p[:, :, 2:, 1:-1] - 2.0 * centre
+    return image - 0.5 * (spread[:, :1] * dxx + spread[:, 1:] * dyy)
+
+
+def reprojected_history(history: torch.Tensor, weight: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor,
+                        scale: int, params: TAAUParams) -> tuple[torch.Tensor, torch.Tensor]:
+    """The previous output ``history`` (N, 3, H, W) RGB and its weight (N, 1, H, W), warped to this
+    frame by the LR ``motion``: colour in YCoCg, weight zero after a reset (``reset`` (N,) > 0.5)
+    and where the motion points off-screen."""
+    n = history.shape[0]
+    hr_motion = upsample_motion(motion, scale)
+    warped = warp_bilinear(torch.cat([history, weight], dim=1), hr_motion)
+    frac = hr_motion - torch.floor(hr_motion)
+    spread = frac * (1.0 - frac)
+    keep = (reset.view(n, 1, 1, 1) < 0.5).to(history.dtype) * (~offscreen(hr_motion)).to(history.dtype)
+    colour = rgb_to_ycocg(undo_bilinear_blur(warped[:, :3], spread) if params.sharpen else warped[:, :3])
+    new_weight = warped[:, 3:] * keep * torch.exp(-params.blur_penalty * spread.sum(dim=1, keepdim=True))
+    return colour, new_weight
+
+
+@dataclass
+class TAAUInputs:
+    """What one TAAU step computes before it blends (all YCoCg, HR unless noted)."""
+
+    samples: torch.Tensor  # (N, 3, H, W) Gaussian mean of the nearby jittered samples
+    sample_weight: torch.Tensor  # (N, 1, H, W)
+    spatial: torch.Tensor  # (N, 3, H, W) jitter-aware bicubic
+    lo: torch.Tensor  # clamp box
+    hi: torch.Tensor
+    history: torch.Tensor  # (N, 3, H, W) reprojected, not clamped
+    history_weight: torch.Tensor  # (N, 1, H, W)
+
+
+def taau_inputs(color: torch.Tensor, jitter: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor, state: dict | None,
+                scale: int, params: TAAUParams) -> TAAUInputs:
+    """The blend's inputs for LR ``color`` (N,3,h,w) RGB; ``state`` None: no history."""
+    current = rgb_to_ycocg(color)
+    samples, sample_weight = nearby_samples(current, jitter, scale, params.sample_sigma)
+    spatial = rgb_to_ycocg(bicubic_upsample(color, jitter, scale))
+    lo, hi = neighbourhood_box(current, scale, params)
+    if state is None:
+        history, weight = spatial, torch.zeros_like(spatial[:, :1])
+    else:
+        history, weight = reprojected_history(state["history"], state["weight"], motion, reset, scale, params)
+    return TAAUInputs(samples, sample_weight, spatial, lo, hi, history, weight)
+
+
+def blend(inputs: TAAUInputs, params: TAAUParams, steer: Steer = NEUTRAL) -> tuple[torch.Tensor, dict]:
+    """The displayed RGB ``(N, 3, H, W)`` in [0, 1] and the next state of one (steered) TAAU step:
+    ``history`` the output (RGB), ``weight`` its accumulated sample weight."""
+    span = inputs.hi - inputs.lo
+    lo, hi = inputs.lo - steer.box_widen * span, inputs.hi + steer.box_widen * span
+    history = torch.minimum(torch.maximum(inputs.history, lo), hi)
+    weight = inputs.history_weight * steer.history_gain
+    sample_weight = inputs.sample_weight * steer.sample_gain
+    p = params.prior_weight
+    blended = (weight * history + sample_weight * inputs.samples + p * inputs.spatial) / (weight + sample_weight + p)
+    output = ycocg_to_rgb(blended + steer.correction).clamp(0.0, 1.0)
+    state = {"history": output, "weight": (weight + sample_weight).clamp(max=params.max_weight)}
+    return output, state

@@ -1,0 +1,80 @@
+"""The ntaau family: a fresh model is the TAAU baseline bit for bit, its steering is bounded, its
+configs meet their cost limits, and its NPU stage quantizes."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from mnss_kit.errors import UserError
+from mnss_kit.eval.baselines import TAAU
+from mnss_kit.model import taau
+from mnss_kit.model.config import load_model_config
+from mnss_kit.model.families import FAMILIES, build_model, npu_module, randomise_convs
+from mnss_kit.model.family import example_frame
+from mnss_kit.model.macs import count_macs
+from mnss_kit.model.ntaau.config import NTAAUConfig
+
+MAC_LIMITS = {"ntaau_x2": 3000, "ntaau_x2_fast": 1500}  # per HR output pixel
+
+
+def _frames(n: int, h: int = 12, w: int = 16, scale: int = 2):
+    g = torch.Generator().manual_seed(3)
+    frames = [example_frame(FAMILIES["ntaau"], h, w, scale, generator=g) for _ in range(n)]
+    for i, f in enumerate(frames):
+        f["motion"] = f["motion"] * 0.7
+        f["reset"] = torch.tensor([1.0 if i == 3 else 0.0])  # a camera cut mid-sequence
+    return frames
+
+
+@pytest.mark.parametrize("scale", [2, 3])
+def test_a_fresh_model_is_the_taau_baseline(scale):
+    model, baseline = build_model(NTAAUConfig(scale=scale)), TAAU(scale)
+    state = ref_state = None
+    with torch.no_grad():
+        for frame in _frames(6, scale=scale):
+            out, aux, state = model(frame, state)
+            ref, _, ref_state = baseline(frame, ref_state)
+            assert torch.equal(out, ref) and torch.equal(aux["taau"], ref)
+
+
+def test_the_correction_is_bounded():
+    g = torch.Generator().manual_seed(0)
+    colour = 0.3 + 0.4 * torch.rand(1, 3, 6, 8, generator=g)  # mid-range: nothing is clamped to [0, 1]
+    frame = {"color": colour, "jitter": torch.zeros(1, 2), "motion": torch.zeros(1, 2, 6, 8)}
+    params = taau.TAAUParams()
+    inputs = taau.taau_inputs(colour, frame["jitter"], frame["motion"], torch.zeros(1), None, 2, params)
+    neutral, _ = taau.blend(inputs, params)
+    model = build_model(NTAAUConfig(correction_bound=0.05))
+    raw = torch.zeros(1, 6, 12, 16)
+    raw[:, 3:] = 50.0  # saturated correction, neutral gains and box
+    steered, _ = model.taau_accumulate(inputs, raw)
+    shift = taau.rgb_to_ycocg(steered) - taau.rgb_to_ycocg(neutral)
+    torch.testing.assert_close(shift, torch.full_like(shift, 0.05), atol=1e-5, rtol=0)
+
+
+def test_random_steering_stays_finite_and_in_range():
+    model = randomise_convs(build_model(NTAAUConfig()), noise=2.0)
+    state = None
+    with torch.no_grad():
+        for frame in _frames(5):
+            out, _, state = model(frame, state)
+            assert torch.isfinite(out).all() and out.min() >= 0.0 and out.max() <= 1.0
+            assert (state["weight"] <= model.params.max_weight + 1e-6).all()
+
+
+@pytest.mark.parametrize("name", sorted(MAC_LIMITS))
+def test_configs_meet_their_cost_limits(name):
+    macs = count_macs(build_model(load_model_config(name)))
+    assert macs.total <= MAC_LIMITS[name], f"{name}: {macs.total:.0f} MACs per output pixel"
+
+
+def test_the_npu_stage_quantizes_and_export_says_why_it_cannot():
+    from mnss_kit.quantize.stage import QuantizeOptions, quantize_module
+
+    model = randomise_convs(build_model(NTAAUConfig()))
+    features = [torch.rand(1, NTAAUConfig().npu_input_channels(), 8, 10).numpy() for _ in range(4)]
+    art = quantize_module(npu_module(model), [(f,) for f in features], QuantizeOptions(), name="ntaau")
+    assert art.tflite[:8] and len(art.graph.ops) > 0
+    with pytest.raises(UserError, match="no bundle GPU passes yet"):
+        FAMILIES["ntaau"].gpu_plan(model.config, {}, (16, 8), {}, "default")
