@@ -32,6 +32,8 @@ SCENES = {  # scene -> (training sequences of train_x2, held-out sequence of tes
 }
 LADDER = ["mnss_x2_tiny", "mnss_x2_small", "mnss_x2"]
 TARGETS = ["within:0.3", "taau:0"]  # close to the largest rung, and never below the free TAAU
+# other targets a user might give, applied to the same rows (no training): where the choices part
+SWEEP = [["within:0.3"], ["within:0.2"], ["within:0.1"], ["within:0.05"], ["taau:0"], TARGETS]
 STEPS = 1500
 
 
@@ -72,7 +74,7 @@ def write_doc() -> None:
                   "Reproduce: `" + " ".join(_portable(size_command(scene, Path("data")))) + "`", "",
                   markdown(doc), f"![{scene} ladder](size/{chart.name})", ""]
     if len(docs) == len(SCENES):
-        lines += ["## What the ladder says", "", _verdict(docs), ""]
+        lines += ["## What the ladder says", "", _verdict(docs), "", *_sweep(docs), ""]
     atomic_write_text(DOC, "\n".join(lines))
     print(f"wrote {DOC.relative_to(REPO)}")
 
@@ -101,6 +103,24 @@ def _verdict(docs: dict[str, dict]) -> str:
     return (f"Chosen per scene: {'; '.join(parts)}. {verdict} Spread between the smallest and the largest rung: {spread}. "
             f"`{TARGETS[0]}` alone would choose: {alone}. Where no rung meets `taau:0`, the scene needs more model or "
             f"more training than this ladder gives at {STEPS} steps.")
+
+
+def _sweep(docs: dict[str, dict]) -> list[str]:
+    """The choice per scene under each target set of SWEEP, from the same rows (nothing retrained)."""
+    from mnss_kit.size.select import choose, parse_target
+
+    lines = ["### The same rows under other targets", "",
+             "`mnss-kit size` applies new targets to the rungs it has already trained; each row below is such a rerun "
+             "(no training). Each rung was trained once, with one seed: how far another seed would move a rung is "
+             "not measured, so a gap of a tenth of a decibel between rungs is weak evidence.", "",
+             "| targets | " + " | ".join(docs) + " |", "|---|" + "---|" * len(docs)]
+    for targets in SWEEP:
+        cells = []
+        for doc in docs.values():
+            chosen, _ = choose(list(doc["rows"].values()), [parse_target(t) for t in targets], baselines=doc["baselines"])
+            cells.append(f"`{chosen['config']}`" if chosen else "none")
+        lines.append(f"| {' '.join(f'`{t}`' for t in targets)} | " + " | ".join(cells) + " |")
+    return lines
 
 
 def _portable(argv: list[str]) -> list[str]:
