@@ -16,13 +16,13 @@ the same frames; frame times do not depend on the frame count, so the frames are
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from mnss_kit.eval.variant_sets import VARIANTS, variant_set  # noqa: E402
 from mnss_kit.fileio import atomic_write_json, atomic_write_text, portable_path, read_json  # noqa: E402
 
 RESULTS = REPO / "bench" / "results" / "input_variants.json"
@@ -30,35 +30,11 @@ WORK = REPO / "bench" / "results" / "work" / "variants"
 DOC = REPO / "docs" / "robustness.md"
 FRAMES = 48
 METHODS = ("model", "taau", "bicubic")
-# name -> (jitter pattern rendered, data variants applied, what it stands for)
-VARIANTS = {
-    "mnss": ("mnss", [], "the toolkit's own inputs: MNSS jitter, float colour, depth and motion"),
-    "halton": ("halton", [], "Halton (2, 3) jitter, as TAA in most engines"),
-    "no_jitter": ("center", [], "no sub-pixel jitter (TAA off, or a capture that drops it)"),
-    "no_jitter_ldr8_depth8": ("center", ["ldr8", "depth8"], "no jitter, 8-bit LDR colour, 8-bit depth: a typical game capture"),
-    "ldr8": ("mnss", ["ldr8"], "8-bit LDR colour"),
-    "depth8": ("mnss", ["depth8"], "8-bit reversed depth"),
-    "motion_noise": ("mnss", ["motion_noise"], "motion vectors with 0.25 px Gaussian error"),
-    "camera_motion": ("mnss", ["camera_motion"], "camera motion only (no per-object motion vectors)"),
-}
 
 
 def variant_data(name: str, base: Path) -> Path:
     """The held-out set in variant ``name``: rendered and/or rewritten once into WORK."""
-    pattern, applied, _ = VARIANTS[name]
-    source = base
-    if pattern != "mnss":
-        source = WORK / f"render_{pattern}"
-        if not source.is_dir():
-            subprocess.run([sys.executable, "-m", "mnss_kit", "render", "test_x2", "--out", str(source),
-                            "--set", f"jitter={pattern}", "--set", f"frames={FRAMES}", "--no-progress"], check=True)
-    if not applied:
-        return source
-    out = WORK / name
-    if not out.is_dir():
-        subprocess.run([sys.executable, "-m", "mnss_kit", "data", "variant", str(source), "--out", str(out),
-                        "--apply", *applied], check=True)
-    return out
+    return variant_set(name, "test_x2", WORK, FRAMES, base=base)
 
 
 def evaluate_variant(model: str, data: Path) -> dict:

@@ -79,3 +79,24 @@ def example_frame(family: Family, h: int, w: int, scale: int, generator=None, st
     frame["jitter"] = torch.zeros(1, 2) if still else torch.rand(1, 2, generator=generator) - 0.5
     frame["reset"] = torch.zeros(1)
     return frame
+
+
+def check_frame(frame: dict, keys: dict[str, int], scale: int, family: str) -> None:
+    """A UserError naming the first missing or misshapen input of a ``family`` model: ``keys`` maps
+    each frame key to its channels (``hr_*`` at HR, the rest at LR); a missing dataset buffer is
+    named as the dataset names it."""
+    from ..errors import UserError
+
+    for key in (*keys, "jitter"):
+        if key not in frame:
+            if key.startswith(("hr_", "lr_")):
+                res, buffer = key.split("_", 1)
+                raise UserError(f"a {family} model needs the dataset buffer {res}/{buffer} (frame key '{key}'), which the data lacks")
+            raise UserError(f"model input lacks '{key}'")
+    n, _, h, w = frame["color"].shape
+    for key, channels in keys.items():
+        size = (h * scale, w * scale) if key.startswith("hr_") else (h, w)
+        if tuple(frame[key].shape) != (n, channels, *size):
+            raise UserError(f"model input '{key}' has shape {tuple(frame[key].shape)}, expected {(n, channels, *size)}")
+    if tuple(frame["jitter"].shape) != (n, 2):
+        raise UserError(f"model input 'jitter' has shape {tuple(frame['jitter'].shape)}, expected {(n, 2)}")

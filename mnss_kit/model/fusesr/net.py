@@ -24,8 +24,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from ...errors import UserError
 from ..layers import add_upsampled, demodulate, jittered_upsample, remodulate, upsample_motion, warp_bilinear
+from ..family import check_frame
 from .config import GBUFFER_CHANNELS, FuseSRConfig
 
 STAGE_ORDER = ("warp_history", "demodulate", "encode", "unshuffle", "backbone", "remodulate")
@@ -182,7 +182,7 @@ class FuseSR(nn.Module):
         the LR L},
         and the next state.
         """
-        _check_frame(frame, self.required_inputs(), self.scale)
+        check_frame(frame, self.required_inputs(), self.scale, "fusesr")
         color, jitter = frame["color"], frame["jitter"]
         n = color.shape[0]
         x = self.demodulate(color, frame["lr_fbeta"], frame["lr_emissive"]) if self.demodulate is not None else color
@@ -201,18 +201,3 @@ class FuseSR(nn.Module):
         output, prediction = self.remodulate(residual, x, fbeta, emissive)
         aux = {"upsampled": jittered_upsample(color, jitter, self.scale), "prediction": prediction, "l": x}
         return output, aux, ({"history": output} if self.config.history else {})
-
-
-def _check_frame(frame: dict, keys: dict[str, int], scale: int) -> None:
-    """A UserError naming the first missing or misshapen input (a missing dataset buffer by name)."""
-    for key in (*keys, "jitter"):
-        if key not in frame:
-            if key.startswith(("hr_", "lr_")):
-                res, buffer = key.split("_", 1)
-                raise UserError(f"a fusesr model needs the dataset buffer {res}/{buffer} (frame key '{key}'), which the data lacks")
-            raise UserError(f"model input lacks '{key}'")
-    n, _, h, w = frame["color"].shape
-    for key, channels in keys.items():
-        size = (h * scale, w * scale) if key.startswith("hr_") else (h, w)
-        if tuple(frame[key].shape) != (n, channels, *size):
-            raise UserError(f"model input '{key}' has shape {tuple(frame[key].shape)}, expected {(n, channels, *size)}")

@@ -27,6 +27,7 @@ from torch import nn
 
 from .config import MNSSConfig, aa_input_channels
 from ..blocks import conv_stack
+from ..family import check_frame
 from ..layers import (
     avgpool,
     extract_samples,
@@ -38,7 +39,6 @@ from ..layers import (
     upsample_motion,
     warp_bilinear,
 )
-from ...errors import UserError
 from ...ops.warp import OFFSCREEN_DEPTH
 
 STAGE_ORDER = ("warp", "inpaint", "aa", "insert", "recon", "enhance")
@@ -227,7 +227,8 @@ class MNSS(nn.Module):
         rectified, upsampled (N,3,H,W) I_U, recon (N,3,H,W) before enhancement}, and the next
         state (still attached to the graph; detach it for truncated backpropagation).
         """
-        color, depth, motion, jitter = _check_frame(frame)
+        check_frame(frame, FRAME_SHAPES, self.scale, "mnss")
+        color, depth, motion, jitter = frame["color"], frame["depth"], frame["motion"], frame["jitter"]
         n = color.shape[0]
         reset = frame.get("reset")
         reset = color.new_zeros(n) if reset is None else reset.to(color)
@@ -247,17 +248,3 @@ class MNSS(nn.Module):
         aux = {"aa": aa, "weight_map": weight_map, "history": rectified, "upsampled": upsampled, "recon": recon}
         next_history = recon if self.config.history == "output" else upsampled
         return output, aux, {"history": next_history, "depth": depth, "jitter": jitter}
-
-
-def _check_frame(frame: dict):
-    """The LR buffers of ``frame`` after checking their shapes agree."""
-    missing = [k for k in (*FRAME_SHAPES, "jitter") if k not in frame]
-    if missing:
-        raise UserError(f"model input lacks {', '.join(missing)}")
-    n, _, h, w = frame["color"].shape
-    for key, channels in FRAME_SHAPES.items():
-        if tuple(frame[key].shape) != (n, channels, h, w):
-            raise UserError(f"model input '{key}' has shape {tuple(frame[key].shape)}, expected {(n, channels, h, w)}")
-    if tuple(frame["jitter"].shape) != (n, 2):
-        raise UserError(f"model input 'jitter' has shape {tuple(frame['jitter'].shape)}, expected {(n, 2)}")
-    return frame["color"], frame["depth"], frame["motion"], frame["jitter"]

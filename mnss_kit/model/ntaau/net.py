@@ -28,8 +28,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from ...errors import UserError
 from ..blocks import conv_stack
+from ..family import check_frame
 from ..taau import Steer, TAAUInputs, TAAUParams, blend, taau_inputs
 from .config import STEER_CHANNELS, NTAAUConfig
 
@@ -111,7 +111,8 @@ class NTAAU(nn.Module):
     def forward(self, frame: dict, state: dict | None = None):
         """One frame: color (N,3,h,w), motion (N,2,h,w), jitter (N,2), optional reset (N,).
         Returns output (N,3,H,W), aux {taau: the unsteered blend of the same inputs}, next state."""
-        color, motion, jitter = _check_frame(frame)
+        check_frame(frame, FRAME_SHAPES, self.scale, "ntaau")
+        color, motion, jitter = frame["color"], frame["motion"], frame["jitter"]
         n = color.shape[0]
         reset = frame.get("reset")
         reset = color.new_zeros(n) if reset is None else reset.to(color)
@@ -124,16 +125,3 @@ class NTAAU(nn.Module):
         with torch.no_grad():
             taau, _ = blend(inputs, self.params)
         return output, {"taau": taau}, next_state
-
-
-def _check_frame(frame: dict):
-    missing = [k for k in (*FRAME_SHAPES, "jitter") if k not in frame]
-    if missing:
-        raise UserError(f"model input lacks {', '.join(missing)}")
-    n, _, h, w = frame["color"].shape
-    for key, channels in FRAME_SHAPES.items():
-        if tuple(frame[key].shape) != (n, channels, h, w):
-            raise UserError(f"model input '{key}' has shape {tuple(frame[key].shape)}, expected {(n, channels, h, w)}")
-    if tuple(frame["jitter"].shape) != (n, 2):
-        raise UserError(f"model input 'jitter' has shape {tuple(frame['jitter'].shape)}, expected {(n, 2)}")
-    return frame["color"], frame["motion"], frame["jitter"]

@@ -1,0 +1,41 @@
+"""Held-out sets in the input variants engines send: rendered with another jitter pattern and/or
+rewritten by ``mnss-kit data variant``, once, into a work directory.
+
+``VARIANTS`` maps a name to ``(jitter pattern rendered, data variants applied, what it stands for)``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+VARIANTS = {
+    "mnss": ("mnss", [], "the toolkit's own inputs: MNSS jitter, float colour, depth and motion"),
+    "halton": ("halton", [], "Halton (2, 3) jitter, as TAA in most engines"),
+    "no_jitter": ("center", [], "no sub-pixel jitter (TAA off, or a capture that drops it)"),
+    "no_jitter_ldr8_depth8": ("center", ["ldr8", "depth8"], "no jitter, 8-bit LDR colour, 8-bit depth: a typical game capture"),
+    "ldr8": ("mnss", ["ldr8"], "8-bit LDR colour"),
+    "depth8": ("mnss", ["depth8"], "8-bit reversed depth"),
+    "motion_noise": ("mnss", ["motion_noise"], "motion vectors with 0.25 px Gaussian error"),
+    "camera_motion": ("mnss", ["camera_motion"], "camera motion only (no per-object motion vectors)"),
+}
+
+
+def variant_set(name: str, config: str, work: Path, frames: int, base: Path | None = None, progress: bool = False) -> Path:
+    """The render config ``config`` in variant ``name``, its first ``frames`` frames per sequence,
+    under ``work/<config>/``.  ``base``: the set already rendered with the MNSS jitter (default:
+    render it too).  Renders resume; a rewritten variant is written atomically."""
+    from ..dataset.variants import write_variant_dataset
+    from ..render.config import load_render_config
+    from ..render.writer import render_dataset
+
+    pattern, applied, _ = VARIANTS[name]
+    root = work / config
+    source = base if pattern == "mnss" and base is not None else root / f"render_{pattern}"
+    if source != base:
+        render_dataset(load_render_config(config, [f"jitter={pattern}", f"frames={frames}"]), source, progress=progress)
+    if not applied:
+        return source
+    out = root / name
+    if not out.is_dir():
+        write_variant_dataset(source, out, applied)
+    return out

@@ -1,0 +1,152 @@
+"""Reference TAAU accumulation (numpy, one frame, ``(H, W, C)``): the definition the torch
+``model.taau`` (the baseline and the ``ntaau`` family) is tested against, and the one the GPU
+passes of the family follow.
+
+See ``model.taau`` for the method.  Conventions are ``ops.conventions``: pixel centres at +0.5,
+clamp-to-edge borders, jitter ``(2,)`` in LR pixels, motion pointing to the previous frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .warp import offscreen, upsample_motion, warp_bilinear
+
+CUBIC_A = -0.75  # the bicubic kernel's free parameter (PyTorch's and OpenCV's)
+RGB_TO_YCOCG = np.array([[0.25, 0.5, 0.25], [0.5, 0.0, -0.5], [-0.25, 0.5, -0.25]], np.float32)
+YCOCG_TO_RGB = np.array([[1.0, 1.0, -1.0], [1.0, 0.0, 1.0], [1.0, -1.0, -1.0]], np.float32)
+
+
+def rgb_to_ycocg(x: np.ndarray) -> np.ndarray:
+    return np.asarray(x, np.float32) @ RGB_TO_YCOCG.T
+
+
+def ycocg_to_rgb(x: np.ndarray) -> np.ndarray:
+    return np.asarray(x, np.float32) @ YCOCG_TO_RGB.T
+
+
+def nearest_up(x: np.ndarray, s: int) -> np.ndarray:
+    return np.repeat(np.repeat(x, s, axis=0), s, axis=1)
+
+
+def cubic_weights(t: np.ndarray) -> np.ndarray:
+    """``(..., 4)`` weights of the taps at -1, 0, 1, 2 for the fractional position ``t``."""
+    a = CUBIC_A
+    d = np.stack([t + 1.0, t, 1.0 - t, 2.0 - t], axis=-1)
+    near = ((a + 2.0) * d - (a + 3.0)) * d * d + 1.0  # |d| <= 1
+    far = ((a * d - 5.0 * a) * d + 8.0 * a) * d - 4.0 * a  # 1 < |d| < 2
+    return np.where(d <= 1.0, near, far).astype(np.float32)
+
+
+def bicubic_upsample(color: np.ndarray, jitter, scale: int) -> np.ndarray:
+    """Jitter-aware bicubic ``(h, w, C)`` -> ``(h*s, w*s, C)``, not clamped: the LR texel ``(i, j)``
+    sits at ``(j + 0.5 + jx, i + 0.5 + jy)``; each tap's index is clamped to the edge."""
+    h, w = color.shape[:2]
+    jx, jy = (float(v) for v in np.asarray(jitter, np.float32).reshape(2))
+
+    def taps(n_lr: int, shift: float):
+        u = (np.arange(n_lr * scale, dtype=np.float64) + 0.5) / scale - shift - 0.5  # texel-index coordinate
+        base = np.floor(u)
+        index = np.clip(base[:, None].astype(np.int64) + np.arange(-1, 3), 0, n_lr - 1)
+        return index, cubic_weights(u - base)
+
+    rows, wy = taps(h, jy)
+    cols, wx = taps(w, jx)
+    out = np.zeros((h * scale, w * scale, color.shape[2]), np.float64)
+    for a in range(4):
+        for b in range(4):
+            out += (wy[:, a, None, None] * wx[None, :, b, None]) * color[rows[:, a]][:, cols[:, b]]
+    return out.astype(np.float32)
+
+
+def nearby_samples(current: np.ndarray, jitter, scale: int, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """Gaussian-weighted mean ``(H, W, 3)`` of the 3x3 LR samples around each HR pixel, and their
+    total weight ``(H, W, 1)``; sample ``(i, j)`` sits at HR ``s (j + 0.5 + jx), s (i + 0.5 + jy)``."""
+    h, w = current.shape[:2]
+    s = scale
+    jx, jy = (float(v) for v in np.asarray(jitter, np.float32).reshape(2))
+    padded = np.pad(current, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    hr_y, hr_x = np.arange(h * s) + 0.5, np.arange(w * s) + 0.5
+    lr_y, lr_x = np.arange(h * s) // s + 0.5, np.arange(w * s) // s + 0.5
+    acc = np.zeros((h * s, w * s, current.shape[2]), np.float64)
+    total = np.zeros((h * s, w * s, 1), np.float64)
+    for dy in (-1, 0, 1):
+        wy = np.exp(-0.5 * (((lr_y + dy + jy) * s - hr_y) / sigma) ** 2)
+        for dx in (-1, 0, 1):
+            wx = np.exp(-0.5 * (((lr_x + dx + jx) * s - hr_x) / sigma) ** 2)
+            weight = (wy[:, None] * wx[None, :])[..., None]
+            acc += weight * nearest_up(padded[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w], s)
+            total += weight
+    return (acc / np.maximum(total, 1e-12)).astype(np.float32), total.astype(np.float32)
+
+
+def neighbourhood_box(current: np.ndarray, scale: int, clip: str = "minmax", gamma: float = 1.25) -> tuple[np.ndarray, np.ndarray]:
+    """Per-HR-pixel colour box ``(lo, hi)``, each ``(H, W, C)``, from the 3x3 LR neighbourhood
+    (min/max, or mean +- ``gamma`` std with ``clip="variance"``)."""
+    h, w = current.shape[:2]
+    padded = np.pad(current, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    window = np.stack([padded[dy : dy + h, dx : dx + w] for dy in range(3) for dx in range(3)])
+    if clip == "minmax":
+        lo, hi = window.min(axis=0), window.max(axis=0)
+    else:
+        mean = window.mean(axis=0)
+        std = np.sqrt(np.maximum((window * window).mean(axis=0) - mean * mean, 0.0))
+        lo, hi = mean - gamma * std, mean + gamma * std
+    return nearest_up(lo, scale), nearest_up(hi, scale)
+
+
+def undo_bilinear_blur(image: np.ndarray, spread: np.ndarray) -> np.ndarray:
+    """First-order inverse of a bilinear fetch's blur; ``spread`` ``(H, W, 2)`` is ``f (1 - f)`` per axis."""
+    p = np.pad(image, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    centre = p[1:-1, 1:-1]
+    dxx = p[1:-1, :-2] + p[1:-1, 2:] - 2.0 * centre
+    dyy = p[:-2, 1:-1] + p[2:, 1:-1] - 2.0 * centre
+    return (image - 0.5 * (spread[..., :1] * dxx + spread[..., 1:] * dyy)).astype(np.float32)
+
+
+def reprojected_history(history: np.ndarray, weight: np.ndarray, motion: np.ndarray, reset: bool, scale: int,
+                        sharpen: bool = True, blur_penalty: float = 1.5) -> tuple[np.ndarray, np.ndarray]:
+    """The previous output ``history`` (H, W, 3) RGB and its weight (H, W, 1) warped by the LR
+    ``motion`` (h, w, 2): YCoCg colour (blur undone), weight scaled by the blur penalty and zero
+    after a reset and where the motion leaves the frame."""
+    hr_motion = upsample_motion(np.asarray(motion, np.float32), scale)
+    warped = warp_bilinear(np.concatenate([history, weight], axis=-1), hr_motion)
+    frac = hr_motion - np.floor(hr_motion)
+    spread = frac * (1.0 - frac)
+    colour = undo_bilinear_blur(warped[..., :3], spread) if sharpen else warped[..., :3]
+    keep = (~offscreen(hr_motion))[..., None] & (not reset)
+    new_weight = warped[..., 3:] * keep * np.exp(-blur_penalty * spread.sum(axis=-1, keepdims=True))
+    return rgb_to_ycocg(colour), new_weight.astype(np.float32)
+
+
+@dataclass
+class Steer:
+    """Per-HR-pixel steering, each ``(H, W, 1 or 3)`` or a scalar (``model.taau.Steer``)."""
+
+    history_gain: np.ndarray | float = 1.0
+    sample_gain: np.ndarray | float = 1.0
+    box_widen: np.ndarray | float = 0.0
+    correction: np.ndarray | float = 0.0
+
+
+def steer_from_raw(raw: np.ndarray, correction_bound: float) -> Steer:
+    """The ``ntaau`` net's raw output (H, W, 6) mapped to its ranges."""
+    raw = np.asarray(raw, np.float32)
+    sigmoid = lambda x: 1.0 / (1.0 + np.exp(-x))  # noqa: E731
+    return Steer(history_gain=2.0 * sigmoid(raw[..., 0:1]), sample_gain=2.0 * sigmoid(raw[..., 1:2]),
+                 box_widen=0.5 * np.tanh(raw[..., 2:3]), correction=correction_bound * np.tanh(raw[..., 3:6]))
+
+
+def blend(samples, sample_weight, spatial, lo, hi, history, history_weight, prior_weight: float, max_weight: float,
+          steer: Steer = Steer()) -> tuple[np.ndarray, np.ndarray]:
+    """Displayed RGB (H, W, 3) in [0, 1] and the accumulated weight (H, W, 1) of one steered TAAU step
+    (inputs in YCoCg)."""
+    span = hi - lo
+    clamped = np.minimum(np.maximum(history, lo - steer.box_widen * span), hi + steer.box_widen * span)
+    weight = history_weight * steer.history_gain
+    current = sample_weight * steer.sample_gain
+    mixed = (weight * clamped + current * samples + prior_weight * spatial) / (weight + current + prior_weight)
+    output = np.clip(ycocg_to_rgb(mixed + steer.correction), 0.0, 1.0)
+    return output.astype(np.float32), np.minimum(weight + current, max_weight).astype(np.float32)

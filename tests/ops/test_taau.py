@@ -1,0 +1,82 @@
+"""The torch TAAU (``model.taau``: the baseline and the ntaau family) against its numpy reference
+``ops.taau``, step by step and over a sequence with a cut, steered and unsteered."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from mnss_kit.model import taau as torch_taau
+from mnss_kit.ops import taau
+
+TOLERANCE = 2e-5  # float32 torch against the float64-accumulating reference, values in [0, 1]
+
+
+def nchw(x: np.ndarray) -> torch.Tensor:
+    return torch.from_numpy(np.ascontiguousarray(np.moveaxis(x, -1, 0)))[None]
+
+
+def hwc(x: torch.Tensor) -> np.ndarray:
+    return np.moveaxis(x[0].numpy(), 0, -1)
+
+
+def _frame(rng, h=7, w=9):
+    return (rng.uniform(0, 1, (h, w, 3)).astype(np.float32), rng.uniform(-0.5, 0.5, 2).astype(np.float32),
+            rng.normal(0, 1.5, (h, w, 2)).astype(np.float32))
+
+
+@pytest.mark.parametrize("scale", [2, 3])
+def test_each_step_matches_the_reference(scale):
+    rng = np.random.default_rng(scale)
+    colour, jitter, motion = _frame(rng)
+    params = torch_taau.TAAUParams()
+    c, j = nchw(colour), torch.from_numpy(jitter)[None]
+    np.testing.assert_allclose(hwc(torch_taau.bicubic_upsample(c, j, scale)), taau.bicubic_upsample(colour, jitter, scale), atol=TOLERANCE)
+    ycc = taau.rgb_to_ycocg(colour)
+    mean, weight = torch_taau.nearby_samples(nchw(ycc), j, scale, params.sample_sigma)
+    ref_mean, ref_weight = taau.nearby_samples(ycc, jitter, scale, params.sample_sigma)
+    np.testing.assert_allclose(hwc(mean), ref_mean, atol=TOLERANCE)
+    np.testing.assert_allclose(hwc(weight), ref_weight, atol=TOLERANCE)
+    for clip in ("minmax", "variance"):
+        lo, hi = torch_taau.neighbourhood_box(nchw(ycc), scale, torch_taau.TAAUParams(clip=clip))
+        ref_lo, ref_hi = taau.neighbourhood_box(ycc, scale, clip)
+        np.testing.assert_allclose(hwc(lo), ref_lo, atol=TOLERANCE)
+        np.testing.assert_allclose(hwc(hi), ref_hi, atol=TOLERANCE)
+    history = rng.uniform(0, 1, (7 * scale, 9 * scale, 3)).astype(np.float32)
+    hist_weight = rng.uniform(0, 9, (7 * scale, 9 * scale, 1)).astype(np.float32)
+    for reset in (False, True):
+        got = torch_taau.reprojected_history(nchw(history), nchw(hist_weight), nchw(motion), torch.tensor([float(reset)]), scale, params)
+        want = taau.reprojected_history(history, hist_weight, motion, reset, scale)
+        np.testing.assert_allclose(hwc(got[0]), want[0], atol=TOLERANCE)
+        np.testing.assert_allclose(hwc(got[1]), want[1], atol=1e-4)  # weights up to 9
+
+
+def test_a_steered_sequence_matches_the_reference():
+    rng = np.random.default_rng(7)
+    scale, h, w, bound = 2, 6, 8, 0.1
+    params = torch_taau.TAAUParams()
+    state, ref_history, ref_weight = None, None, None
+    for t in range(5):
+        colour, jitter, motion = _frame(rng, h, w)
+        reset = t == 2
+        raw = rng.normal(0, 2, (h * scale, w * scale, 6)).astype(np.float32)
+        inputs = torch_taau.taau_inputs(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.tensor([float(reset)]),
+                                        state, scale, params)
+        r = nchw(raw)
+        steer = torch_taau.Steer(2 * torch.sigmoid(r[:, 0:1]), 2 * torch.sigmoid(r[:, 1:2]), 0.5 * torch.tanh(r[:, 2:3]),
+                                 bound * torch.tanh(r[:, 3:6]))
+        out, state = torch_taau.blend(inputs, params, steer)
+
+        ycc = taau.rgb_to_ycocg(colour)
+        samples, sample_weight = taau.nearby_samples(ycc, jitter, scale, params.sample_sigma)
+        spatial = taau.rgb_to_ycocg(taau.bicubic_upsample(colour, jitter, scale))
+        lo, hi = taau.neighbourhood_box(ycc, scale)
+        if ref_history is None:
+            history, weight = spatial, np.zeros_like(spatial[..., :1])
+        else:
+            history, weight = taau.reprojected_history(ref_history, ref_weight, motion, reset, scale)
+        ref_history, ref_weight = taau.blend(samples, sample_weight, spatial, lo, hi, history, weight, params.prior_weight,
+                                             params.max_weight, taau.steer_from_raw(raw, bound))
+        np.testing.assert_allclose(hwc(out), ref_history, atol=1e-4)
+        np.testing.assert_allclose(hwc(state["weight"]), ref_weight, atol=1e-4)
