@@ -97,6 +97,8 @@ def bench_section(name: str, section: dict, charts: list[str]) -> list[str]:
     settings = section["settings"]
     devices = settings.get("devices", [])
     quick = " (quick run: shortened sequences)" if settings.get("quick") else ""
+    if settings.get("max_frames"):
+        quick += f", first {settings['max_frames']} frames per sequence"
     header = ["model", "family", "precision", "PSNR", "SSIM", "IF-SSIM", "MACs/pixel", "CPU ms (xnnpack)"]
     header += [f'<span class=estimate>{_e(d)} ms (estimate)</span>' for d in devices]
     rows = []
