@@ -348,3 +348,27 @@ class MesaPasses:
                "u_demodulate": int(demodulate)}
         self.run("remodulate_pass", (hw, hh), res, uni)
         return self.read(history, "rgba16f", 3), self.read(display, "rgba8", 3)
+
+    @_in_own_context
+    def taau_reproject(self, history, motion, scale: int, reset: bool, blur_penalty: float):
+        hh, hw = history.shape[:2]
+        out = self.empty((hw, hh), "rgba16f")
+        res = {"history": self.texture(history, "rgba16f"), "motion": self.texture(motion, "rg32f"), "reprojected": out}
+        uni = {"u_scale": scale, "u_reset": int(bool(reset)), "u_blur_penalty": float(blur_penalty)}
+        self.run("taau_reproject_pass", (hw, hh), res, uni)
+        return self.read(out, "rgba16f", 4)
+
+    @_in_own_context
+    def taau_accumulate(self, npu_output, color, reprojected, jitter, scale: int, q_scale: float, q_zero_point: int,
+                        correction_bound: float, sample_sigma: float, prior_weight: float, max_weight: float):
+        _, hh, hw, _ = npu_output.shape
+        raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
+        raw += b"\0" * (-len(raw) % 4)
+        history, display = self.empty((hw, hh), "rgba16f"), self.empty((hw, hh), "rgba8")
+        res = {"npu_output": self.ctx.buffer(raw), "color": self.texture(color, "rgba16f"),
+               "reprojected": self.texture(reprojected, "rgba16f"), "history": history, "display": display}
+        uni = {"u_scale": scale, "u_jitter": _vec2(jitter), "u_q_scale": float(np.float32(q_scale)),
+               "u_q_zero_point": int(q_zero_point), "u_correction_bound": float(correction_bound),
+               "u_sample_sigma": float(sample_sigma), "u_prior_weight": float(prior_weight), "u_max_weight": float(max_weight)}
+        self.run("taau_accumulate_pass", (hw, hh), res, uni)
+        return self.read(history, "rgba16f", 4), self.read(display, "rgba8", 3)

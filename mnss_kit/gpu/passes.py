@@ -141,6 +141,21 @@ PASSES = {
             ("u_scale", "u_q_scale", "u_q_zero_point", "u_demodulate"),
             exact=False,
         ),
+        # ntaau: the TAAU history reprojected, and the steered accumulation (exp and tanh: float paths)
+        Pass(
+            "taau_reproject_pass", (8, 8, 1), "hr",
+            (_s("history", 0, HISTORY_FORMAT), _s("motion", 1, "rg32f"), _i("reprojected", 0, "rgba16f")),
+            ("u_scale", "u_reset", "u_blur_penalty"),
+            exact=False,
+        ),
+        Pass(
+            "taau_accumulate_pass", (8, 8, 1), "hr",
+            (_b("npu_output", 0, "uint[]"), _s("color", 0, "rgba16f"), _s("reprojected", 1, "rgba16f"),
+             _i("history", 0, HISTORY_FORMAT), _i("display", 1, DISPLAY_FORMAT)),
+            ("u_scale", "u_jitter", "u_q_scale", "u_q_zero_point", "u_correction_bound", "u_sample_sigma",
+             "u_prior_weight", "u_max_weight"),
+            exact=False,
+        ),
     )
 }
 

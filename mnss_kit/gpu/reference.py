@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ops import demodulation, inpaint, quant, sharpen, subpixel, warp
+from ..ops import demodulation, inpaint, quant, sharpen, subpixel, taau, warp
 from ..ops.resample import avgpool
 from .passes import PACKED_GBUFFERS
 from .weights import Conv3x3
@@ -147,3 +147,25 @@ class ReferencePasses:
         if demodulate:
             v = demodulation.remodulate(v, to_half(fbeta), to_half(emissive))
         return to_half(v), encode_unorm8(v)
+
+    def taau_reproject(self, history, motion, scale: int, reset: bool, blur_penalty: float):
+        """taau_reproject_pass.  history (H,W,4): the previous output (rgb) and its weight (a);
+        motion (h,w,2) LR pixels -> (H,W,4) fp16 values: the reprojected YCoCg history and its weight."""
+        stored = to_half(history)
+        colour, weight = taau.reprojected_history(stored[..., :3], stored[..., 3:], motion, reset, scale, True, blur_penalty)
+        return to_half(np.concatenate([colour, weight], axis=-1))
+
+    def taau_accumulate(self, npu_output, color, reprojected, jitter, scale: int, q_scale: float, q_zero_point: int,
+                        correction_bound: float, sample_sigma: float, prior_weight: float, max_weight: float):
+        """taau_accumulate_pass.  npu_output (1,H,W,6) int8 raw steering, color (h,w,3), reprojected
+        (H,W,4) -> (history (H,W,4) fp16 values: output and weight, display (H,W,3) uint8 codes)."""
+        raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0]
+        stored = to_half(color)
+        current = taau.rgb_to_ycocg(stored)
+        samples, sample_weight = taau.nearby_samples(current, as_jitter(jitter), scale, sample_sigma)
+        spatial = taau.rgb_to_ycocg(taau.bicubic_upsample(stored, as_jitter(jitter), scale))
+        lo, hi = taau.neighbourhood_box(current, scale)
+        r = to_half(reprojected)
+        output, weight = taau.blend(samples, sample_weight, spatial, lo, hi, r[..., :3], r[..., 3:], prior_weight, max_weight,
+                                    taau.steer_from_raw(raw, correction_bound))
+        return to_half(np.concatenate([output, weight], axis=-1)), encode_unorm8(output)

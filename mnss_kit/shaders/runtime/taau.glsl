@@ -1,0 +1,111 @@
+// TAAU accumulation (the ntaau family): reprojection, the nearby jittered samples, the
+// jitter-aware bicubic frame, the clamp box and the steered blend.  Binding-free; mirrors
+// mnss_kit/ops/taau.py (the definition; mnss_kit/model/taau.py is its torch form).
+
+#include "warp.glsl"
+
+vec3 rgb_to_ycocg(vec3 c) {
+    return vec3(0.25 * c.r + 0.5 * c.g + 0.25 * c.b, 0.5 * c.r - 0.5 * c.b, -0.25 * c.r + 0.5 * c.g - 0.25 * c.b);
+}
+
+vec3 ycocg_to_rgb(vec3 c) {
+    return vec3(c.x + c.y - c.z, c.x + c.z, c.x - c.y - c.z);
+}
+
+// The history (rgb) and its weight (a) bilinearly fetched where HR texel `hr`'s surface was.
+vec4 warped_history_at(highp sampler2D history, highp sampler2D motion, ivec2 hr, int scale) {
+    return bilinear_sample(history, warp_source(motion, hr, scale));
+}
+
+// ops.taau.CUBIC_A: the bicubic kernel's free parameter.
+const float CUBIC_A = -0.75;
+
+// Weights of the taps at -1, 0, 1, 2 for fractional position t (ops.taau.cubic_weights).
+vec4 cubic_weights(float t) {
+    vec4 d = vec4(t + 1.0, t, 1.0 - t, 2.0 - t);
+    vec4 near = ((CUBIC_A + 2.0) * d - (CUBIC_A + 3.0)) * d * d + 1.0;
+    vec4 far = ((CUBIC_A * d - 5.0 * CUBIC_A) * d + 8.0 * CUBIC_A) * d - 4.0 * CUBIC_A;
+    return mix(far, near, vec4(lessThanEqual(d, vec4(1.0))));
+}
+
+// Jitter-aware bicubic of the LR colour at HR texel `hr` (ops.taau.bicubic_upsample), YCoCg.
+vec3 spatial_at(highp sampler2D color, ivec2 hr, vec2 jitter, int scale) {
+    ivec2 size = textureSize(color, 0);
+    vec2 u = (vec2(hr) + 0.5) / float(scale) - jitter - 0.5;
+    vec2 base = floor(u);
+    vec4 wx = cubic_weights(u.x - base.x);
+    vec4 wy = cubic_weights(u.y - base.y);
+    ivec2 b = ivec2(base);
+    vec3 acc = vec3(0.0);
+    for (int a = 0; a < 4; a++) {
+        int row = clamp(b.y + a - 1, 0, size.y - 1);
+        for (int c = 0; c < 4; c++) {
+            int col = clamp(b.x + c - 1, 0, size.x - 1);
+            acc += (wy[a] * wx[c]) * texelFetch(color, ivec2(col, row), 0).rgb;
+        }
+    }
+    return rgb_to_ycocg(acc);
+}
+
+// The Gaussian-weighted mean of the 3x3 LR samples around HR texel `hr` (YCoCg, rgb) and their
+// total weight (a) (ops.taau.nearby_samples); the clamp box of the same neighbourhood.
+struct Neighbourhood {
+    vec4 samples;
+    vec3 lo;
+    vec3 hi;
+};
+
+Neighbourhood neighbourhood_at(highp sampler2D color, ivec2 hr, vec2 jitter, int scale, float sigma) {
+    ivec2 size = textureSize(color, 0);
+    ivec2 lr = hr / scale;
+    float s = float(scale);
+    vec2 centre = vec2(hr) + 0.5;
+    Neighbourhood n;
+    vec3 acc = vec3(0.0);
+    float total = 0.0;
+    n.lo = vec3(1e30);
+    n.hi = vec3(-1e30);
+    for (int dy = -1; dy <= 1; dy++) {
+        float ey = ((float(lr.y) + 0.5 + float(dy) + jitter.y) * s - centre.y) / sigma;
+        float wy = exp(-0.5 * ey * ey);
+        for (int dx = -1; dx <= 1; dx++) {
+            float ex = ((float(lr.x) + 0.5 + float(dx) + jitter.x) * s - centre.x) / sigma;
+            float w = wy * exp(-0.5 * ex * ex);
+            vec3 c = rgb_to_ycocg(texelFetch(color, clamp(lr + ivec2(dx, dy), ivec2(0), size - 1), 0).rgb);
+            acc += w * c;
+            total += w;
+            n.lo = min(n.lo, c);
+            n.hi = max(n.hi, c);
+        }
+    }
+    n.samples = vec4(acc / max(total, 1e-12), total);
+    return n;
+}
+
+// The steering of one HR pixel from the net's six raw values (ops.taau.steer_from_raw).
+struct Steer {
+    float history_gain;
+    float sample_gain;
+    float box_widen;
+    vec3 correction;
+};
+
+Steer steer_from_raw(float raw[6], float correction_bound) {
+    Steer s;
+    s.history_gain = 2.0 / (1.0 + exp(-raw[0]));
+    s.sample_gain = 2.0 / (1.0 + exp(-raw[1]));
+    s.box_widen = 0.5 * tanh(raw[2]);
+    s.correction = correction_bound * vec3(tanh(raw[3]), tanh(raw[4]), tanh(raw[5]));
+    return s;
+}
+
+// One steered TAAU step (ops.taau.blend): the displayed RGB in [0, 1] (rgb) and the accumulated
+// weight (a).  `history` is the reprojected YCoCg history (rgb) and its weight (a).
+vec4 steered_blend(Neighbourhood n, vec3 spatial, vec4 history, Steer s, float prior_weight, float max_weight) {
+    vec3 span = n.hi - n.lo;
+    vec3 clamped = min(max(history.rgb, n.lo - s.box_widen * span), n.hi + s.box_widen * span);
+    float weight = history.a * s.history_gain;
+    float current = n.samples.a * s.sample_gain;
+    vec3 mixed = (weight * clamped + current * n.samples.rgb + prior_weight * spatial) / (weight + current + prior_weight);
+    return vec4(clamp(ycocg_to_rgb(mixed + s.correction), 0.0, 1.0), min(weight + current, max_weight));
+}

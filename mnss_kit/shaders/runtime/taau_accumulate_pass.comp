@@ -1,0 +1,52 @@
+#version 310 es
+// taau_accumulate_pass: one invocation per HR texel.
+//   in   npu_output   std430 uint[]  int8 NHWC (1, H, W, 6): the steering net's raw output
+//        color        LR rgba16f     jittered LR colour, display values
+//        reprojected  HR rgba16f     taau_reproject_pass
+//   out  history      HR rgba16f     the output (rgb) and its accumulated weight (a): the next history
+//        display      HR rgba8       the output as 8-bit display codes
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+precision highp image2D;
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(std430, binding = 0) readonly buffer NpuOutput { uint npu_output[]; };
+layout(binding = 0) uniform highp sampler2D color;
+layout(binding = 1) uniform highp sampler2D reprojected;
+layout(rgba16f, binding = 0) uniform writeonly highp image2D history;
+layout(rgba8, binding = 1) uniform writeonly highp image2D display;
+
+uniform int u_scale;
+uniform vec2 u_jitter;
+uniform float u_q_scale;
+uniform int u_q_zero_point;
+uniform float u_correction_bound;
+uniform float u_sample_sigma;
+uniform float u_prior_weight;
+uniform float u_max_weight;
+
+#include "display.glsl"
+#include "taau.glsl"
+
+const int STEER_CHANNELS = 6;
+
+void main() {
+    ivec2 hr = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(history);
+    if (any(greaterThanEqual(hr, size))) {
+        return;
+    }
+    float raw[6];
+    for (int c = 0; c < STEER_CHANNELS; c++) {
+        int b = (hr.y * size.x + hr.x) * STEER_CHANNELS + c;
+        raw[c] = dequantize_int8(int8_of_word(npu_output[b / 4], b % 4), u_q_scale, u_q_zero_point);
+    }
+    Neighbourhood n = neighbourhood_at(color, hr, u_jitter, u_scale, u_sample_sigma);
+    vec3 spatial = spatial_at(color, hr, u_jitter, u_scale);
+    vec4 out_ = steered_blend(n, spatial, texelFetch(reprojected, hr, 0), steer_from_raw(raw, u_correction_bound),
+                              u_prior_weight, u_max_weight);
+    imageStore(history, hr, round_to_half(out_));
+    imageStore(display, hr, encode_unorm8(vec4(out_.rgb, 1.0)));
+}

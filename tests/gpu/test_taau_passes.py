@@ -1,0 +1,52 @@
+"""The ntaau family's GPU passes on Mesa (EGL) against their numpy reference (``ops.taau`` through
+``ReferencePasses``): the reprojection with negative and off-screen motion and a reset, the
+steered accumulation for every jitter pattern at scales 2 and 3.  Both go through exp and tanh,
+so they are held to a tolerance (one fp16 step, one display code), not bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from gpu_helpers import assert_float_close, pattern_jitters, random_frame
+
+from mnss_kit.gpu.reference import to_half
+from mnss_kit.model.taau import TAAUParams
+from mnss_kit.ops.jitter import PATTERNS
+
+H, W = 5, 7  # LR size: odd, so edge clamping and partial workgroups are exercised
+TOLERANCE = 2e-3  # about two fp16 steps at 1.0: exp and tanh differ between drivers by a few ULP
+PARAMS = TAAUParams()
+
+
+def _history(rng, scale):
+    colour = rng.random((H * scale, W * scale, 3), dtype=np.float32)
+    weight = rng.uniform(0, PARAMS.max_weight, (H * scale, W * scale, 1)).astype(np.float32)
+    return to_half(np.concatenate([colour, weight], axis=-1))
+
+
+@pytest.mark.parametrize("scale", [2, 3])
+@pytest.mark.parametrize("motion_scale", [0.6, 4.0, 60.0], ids=["sub-pixel", "pixels", "off-screen"])
+def test_reprojection_matches_reference(mesa, ref, scale, motion_scale):
+    rng = np.random.default_rng(scale)
+    history = _history(rng, scale)
+    motion = random_frame(rng, H, W, scale, motion_scale)["motion"]
+    for reset in (False, True):
+        args = (history, motion, scale, reset, PARAMS.blur_penalty)
+        got, want = mesa.taau_reproject(*args), ref.taau_reproject(*args)
+        assert_float_close(got, want, TOLERANCE)
+        if reset:
+            assert np.all(got[..., 3] == 0.0)
+
+
+@pytest.mark.parametrize("pattern, scale", [(p, s) for p in PATTERNS for s in (2, 3)])
+def test_steered_accumulation_matches_reference(mesa, ref, pattern, scale):
+    rng = np.random.default_rng(7 * scale)
+    f = random_frame(rng, H, W, scale)
+    reprojected = ref.taau_reproject(_history(rng, scale), f["motion"], scale, False, PARAMS.blur_penalty)
+    steering = rng.integers(-128, 128, (1, H * scale, W * scale, 6)).astype(np.int8)
+    for jitter in pattern_jitters(pattern, scale)[:4]:
+        args = (steering, f["color"], reprojected, jitter, scale, 0.02, 3, 0.1, PARAMS.sample_sigma, PARAMS.prior_weight,
+                PARAMS.max_weight)
+        (history, display), (want_history, want_display) = mesa.taau_accumulate(*args), ref.taau_accumulate(*args)
+        assert_float_close(history, want_history, TOLERANCE)
+        assert np.abs(display.astype(int) - want_display.astype(int)).max() <= 1
