@@ -149,6 +149,13 @@ PASSES = {
             exact=False,
         ),
         Pass(
+            "taau_pack_pass", (64, 1, 1), "words",
+            (_s("color", 0, "rgba16f"), _s("reprojected", 1, "rgba16f"), _b("npu_input", 0, "uint[]")),
+            ("u_scale", "u_max_weight", "u_word_count", "u_q_scale", "u_q_reciprocal", "u_q_use_reciprocal", "u_q_rounding",
+             "u_q_zero_point"),
+            exact=False,
+        ),
+        Pass(
             "taau_accumulate_pass", (8, 8, 1), "hr",
             (_b("npu_output", 0, "uint[]"), _s("color", 0, "rgba16f"), _s("reprojected", 1, "rgba16f"),
              _i("history", 0, HISTORY_FORMAT), _i("display", 1, DISPLAY_FORMAT)),

@@ -155,6 +155,18 @@ class ReferencePasses:
         colour, weight = taau.reprojected_history(stored[..., :3], stored[..., 3:], motion, reset, scale, True, blur_penalty)
         return to_half(np.concatenate([colour, weight], axis=-1))
 
+    def taau_pack(self, color, reprojected, scale: int, max_weight: float, q_scale: float, q_zero_point: int, profile: str):
+        """taau_pack_pass -> the int8 NPU input (1,h,w,3 + 5 s^2): the LR colour, then the clamped
+        history, its weight / ``max_weight`` and the clamp distance pixel-unshuffled, quantized as
+        ``ops.quant.quantize`` under ``profile``."""
+        stored, r = to_half(color), to_half(reprojected)
+        lo, hi = taau.neighbourhood_box(taau.rgb_to_ycocg(stored), scale)
+        clamped = np.minimum(np.maximum(r[..., :3], lo), hi)
+        distance = np.abs(r[..., :3] - clamped).sum(axis=-1, keepdims=True)
+        hr = np.concatenate([clamped, r[..., 3:] / np.float32(max_weight), distance], axis=-1)
+        features = np.concatenate([stored, demodulation.pixel_unshuffle(hr, scale)], axis=-1)
+        return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]
+
     def taau_accumulate(self, npu_output, color, reprojected, jitter, scale: int, q_scale: float, q_zero_point: int,
                         correction_bound: float, sample_sigma: float, prior_weight: float, max_weight: float):
         """taau_accumulate_pass.  npu_output (1,H,W,6) int8 raw steering, color (h,w,3), reprojected
