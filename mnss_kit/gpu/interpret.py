@@ -109,6 +109,26 @@ def _remodulate(p, c: Call):
     return {"history": history, "display": display}
 
 
+def _taau_reproject(p, c: Call):
+    reset, history, motion = bool(c.u("u_reset")), c.read["history"], c.read["motion"]
+    if history is None:  # the first frame of a sequence: nothing accumulated yet (and u_reset is 1)
+        s = c.u("u_scale")
+        history = np.zeros((motion.shape[0] * s, motion.shape[1] * s, 4), np.float32)
+    return {"reprojected": p.taau_reproject(history, motion, c.u("u_scale"), reset, c.u("u_blur_penalty"))}
+
+
+def _taau_pack(p, c: Call):
+    return {"npu_input": p.taau_pack(c.read["color"], c.read["reprojected"], c.u("u_scale"), c.u("u_max_weight"),
+                                     c.u("u_q_scale"), c.u("u_q_zero_point"), c.profile)}
+
+
+def _taau_accumulate(p, c: Call):
+    history, display = p.taau_accumulate(c.read["npu_output"], c.read["color"], c.read["reprojected"], c.offset, c.u("u_scale"),
+                                         c.u("u_q_scale"), c.u("u_q_zero_point"), c.u("u_correction_bound"),
+                                         c.u("u_sample_sigma"), c.u("u_prior_weight"), c.u("u_max_weight"))
+    return {"history": history, "display": display}
+
+
 # pass name -> (backend, call) -> {image or buffer binding written: array}
 PASS_CALLS: dict[str, Callable[[object, Call], dict]] = {
     "warp_pass": _warp,
@@ -122,6 +142,9 @@ PASS_CALLS: dict[str, Callable[[object, Call], dict]] = {
     "demodulate_pass": _demodulate,
     "gbuffer_pack_pass": _gbuffer_pack,
     "remodulate_pass": _remodulate,
+    "taau_reproject_pass": _taau_reproject,
+    "taau_pack_pass": _taau_pack,
+    "taau_accumulate_pass": _taau_accumulate,
 }
 
 

@@ -5,7 +5,7 @@ its runtime), the Android core's bundle contract and the app's GL pipeline.
 ``toy`` is a second family defined only in ``toy_family.py``: nothing in the package knows it
 exists (the fixture adds it to the family table for its own duration).  ``fusesr`` is the
 shipped reduced FuseSR family: its "l" variant at x4 and its history hybrid at x2, each on a small
-render carrying the G-buffers."""
+render carrying the G-buffers.  ``ntaau`` steers the toolkit's TAAU (exp and tanh: float paths)."""
 
 from __future__ import annotations
 
@@ -59,6 +59,10 @@ CASES = {
                            "remodulate": "gpu"},
                           ("color", "lr_fbeta", "lr_emissive", "depth", "motion", "hr_fbeta", "hr_normal", "hr_depth",
                            "hr_albedo", "hr_emissive"), float_gpu=True, recurrent=True, shipped="fusesr_x2_hybrid"),
+    "ntaau": Case("ntaau", {"family": "ntaau", "scale": 2, "width": 8, "layers": 2},
+                  (f"frames={LR_FRAMES}", "hr_samples=1", "lr_size=[48,24]"),
+                  {"taau_gather": "gpu", "steer": "npu", "taau_accumulate": "gpu"}, ("color", "motion"),
+                  float_gpu=True, recurrent=True),
 }
 
 

@@ -4,9 +4,9 @@ its record, and where each part lives.
     config.py    the ``model:`` section (:class:`~.config.NTAAUConfig`)
     net.py       the torch model and its stages: taau_gather, steer, taau_accumulate
     costs.py     fixed-function MACs per stage
+    gpu_plan.py  the bundle's GPU side: passes, resources, per-frame schedule
 
-The loss is ``model.losses.DisplayLoss``.  The bundle's GPU side (GLSL passes for gather and
-accumulate) is not written yet: ``mnss-kit export`` refuses an ntaau checkpoint with that reason.
+The loss is ``model.losses.DisplayLoss``.
 """
 
 from __future__ import annotations
@@ -29,10 +29,9 @@ def _loss(config: NTAAUConfig, train):
 
 
 def _gpu_plan(config: NTAAUConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
-    from ...errors import UserError
+    from .gpu_plan import bundle_gpu_plan
 
-    raise UserError("the ntaau family has no bundle GPU passes yet: its models train, evaluate and quantize, "
-                    "but do not export to a bundle")
+    return bundle_gpu_plan(config, state_dict, lr_size, npu, profile)
 
 
 NTAAU_FAMILY = Family(

@@ -1,0 +1,90 @@
+"""The ntaau family's GPU side of a bundle: shaders used, resources, frame schedule.
+
+Per frame: ``taau_reproject_pass`` (the previous output and its weight warped to this frame;
+weight 0 on a reset), ``taau_pack_pass`` (the int8 NPU input at LR), the NPU steering net,
+``taau_accumulate_pass`` (the steered TAAU blend: display and the next history).  No learned
+weights run on the GPU.  The building blocks are :mod:`mnss_kit.gpu.plan`'s.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...gpu import passes as P
+from ...gpu.plan import const, pass_entries, per_frame, quantize_uniforms, step, word_count
+from ..taau import TAAUParams
+from .config import STEER_CHANNELS, NTAAUConfig
+
+PASSES_USED = {"taau_reproject_pass", "taau_pack_pass", "taau_accumulate_pass"}
+
+
+def bundle_gpu_plan(config: NTAAUConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
+    """The family record's ``gpu_plan``: passes, weight blocks (none), resources and schedule."""
+    return {"passes": pass_entries(PASSES_USED), "weights": [], "resources": resources(config, lr_size),
+            "schedule": schedule(config, lr_size, npu, profile)}
+
+
+def input_words(config: NTAAUConfig, lr_size: tuple[int, int]) -> int:
+    """32-bit words of the int8 NHWC (1, h, w, 3 + 5 s^2) NPU input."""
+    return -(-lr_size[0] * lr_size[1] * config.npu_input_channels() // 4)
+
+
+def _tex(name, size, fmt, role, note, channels):
+    return {"name": name, "kind": "texture2d", "size": size, "format": fmt, "channels": channels, "role": role,
+            "description": note}
+
+
+def _buf(name, words, note):
+    return {"name": name, "kind": "buffer", "bytes": words * 4, "words": words, "element": "uint", "role": "boundary",
+            "description": note}
+
+
+def resources(config: NTAAUConfig, lr_size: tuple[int, int]) -> list[dict]:
+    """Every texture and buffer a phone keeps for the schedule.  Sizes are ``[width, height]``."""
+    w, h = lr_size
+    hr, lr = [w * config.scale, h * config.scale], [w, h]
+    return [
+        _tex("color", lr, P.INPUT_FORMATS["color"], "input", "jittered LR colour, display values in [0, 1]", 3),
+        _tex("motion", lr, P.INPUT_FORMATS["motion"], "input", "LR motion in LR pixels, pointing to the previous frame", 2),
+        _tex("history", hr, P.HISTORY_FORMAT, "state", "the previous output (rgb) and its accumulated weight (a)", 4),
+        _tex("reprojected", hr, "rgba16f", "intermediate", "the history warped to this frame (YCoCg) and its weight", 4),
+        _buf("npu_input", input_words(config, lr_size), "int8 NHWC (1, h, w, 3 + 5 s^2) NPU input at LR, 4 bytes per word, "
+             "little-endian"),
+        _buf("npu_output", word_count(lr_size, config.scale, STEER_CHANNELS),
+             "int8 NHWC (1, H, W, 6) raw steering from the NPU, 4 bytes per word, little-endian"),
+        _tex("display", hr, P.DISPLAY_FORMAT, "output", "the frame to show (8-bit codes)", 3),
+    ]
+
+
+def schedule(config: NTAAUConfig, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
+    """The per-frame steps.  ``npu``: ``{"model", "input", "output", "input_q", "output_q"}``."""
+    s = config.scale
+    params = TAAUParams(alpha=config.alpha)
+    a = dict(lr_size=lr_size, scale=s)
+    words = input_words(config, lr_size)
+    out_scale, out_zp = npu["output_q"]
+    steps = [
+        step("taau_reproject_pass", "reproject history", "taau_gather",
+             {"history": "history", "motion": "motion", "reprojected": "reprojected"},
+             {"u_scale": const(s), "u_reset": per_frame("reset"), "u_blur_penalty": const(params.blur_penalty)}, **a),
+        step("taau_pack_pass", "steering features + pack", "taau_gather",
+             {"color": "color", "reprojected": "reprojected", "npu_input": "npu_input"},
+             {"u_scale": const(s), "u_max_weight": const(params.max_weight), "u_word_count": const(words),
+              **quantize_uniforms(*npu["input_q"], profile)}, words=words, **a),
+        {"kind": "npu", "label": "steering net", "stage": "steer", "model": npu["model"],
+         "inputs": {npu["input"]: "npu_input"}, "outputs": {npu["output"]: "npu_output"}},
+        step("taau_accumulate_pass", "steered accumulation", "taau_accumulate",
+             {"npu_output": "npu_output", "color": "color", "reprojected": "reprojected", "history": "history",
+              "display": "display"},
+             {"u_scale": const(s), "u_jitter": per_frame("offset"), "u_q_scale": const(float(np.float32(out_scale))),
+              "u_q_zero_point": const(int(out_zp)), "u_correction_bound": const(config.correction_bound),
+              "u_sample_sigma": const(params.sample_sigma), "u_prior_weight": const(params.prior_weight),
+              "u_max_weight": const(params.max_weight)}, **a),
+    ]
+    return {
+        "steps": steps,
+        "end_of_frame": [],
+        "reset": "on a reset frame taau_reproject_pass gets u_reset = 1: the history keeps zero weight",
+        "barriers": "glMemoryBarrier between GPU steps; around the NPU step the GPU's writes to npu_input must be visible "
+                    "to the NPU, and the NPU's npu_output to the GPU (fence)",
+    }
