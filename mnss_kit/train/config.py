@@ -116,8 +116,10 @@ class TrainConfig:
 class DataSection:
     """Render configs that create the data directories when they do not exist yet."""
 
-    train: str | None = None  # renders TrainConfig.train_data
-    val: str | None = None  # renders TrainConfig.val_data
+    # renders TrainConfig.train_data: one render config per directory, each a name or path with
+    # optional overrides ("train_x2 jitter=center")
+    train: str | list[str] | None = None
+    val: str | list[str] | None = None  # renders TrainConfig.val_data
     test: str | None = None  # held-out test set for ``mnss-kit eval`` (not used by training)
 
 

@@ -105,19 +105,25 @@ def ensure_data(cfg: TrainConfig, data: DataSection | None, progress: bool = Tru
             continue
         if render_config is None:
             raise UserError(f"{role} data {missing[0]} does not exist and the config's data: section names no render config for it")
-        if len(dirs) != 1:
-            raise UserError(f"data.{role} renders one directory, but train.{role}_data lists {len(dirs)}")
-        render(render_config, dirs[0], progress)
+        configs = [render_config] if isinstance(render_config, str) else list(render_config)
+        if len(configs) != len(dirs):
+            raise UserError(f"data.{role} names {len(configs)} render config(s) for the {len(dirs)} director(ies) of "
+                            f"train.{role}_data (one each, in order)")
+        for directory, config in zip(dirs, configs):
+            if not directory.exists():
+                render(config, directory, progress)
 
 
 def render(render_config: str, out_dir: Path, progress: bool) -> None:
-    """Render the data config ``render_config`` (a path or a name under mnss_kit/configs/data/) into ``out_dir``."""
+    """Render the data config ``render_config`` into ``out_dir``: a path or a name under
+    mnss_kit/configs/data/, optionally followed by overrides (``train_x2 jitter=center``)."""
     try:
         from ..render.config import load_render_config
         from ..render.writer import render_dataset
     except ImportError as e:
         raise UserError(f"cannot render {out_dir}: the renderer is not available in this installation ({e})") from None
-    cfg = load_render_config(render_config)
+    name, *overrides = render_config.split()
+    cfg = load_render_config(name, overrides) if overrides else load_render_config(name)
     # Render beside the target and rename when complete: a killed render never looks like data,
     # and the next run continues it (the renderer skips frames already written).
     staging = out_dir.with_name(out_dir.name + ".partial")

@@ -65,3 +65,21 @@ def test_missing_data_is_rendered_then_renamed(tmp_path, monkeypatch):
     assert calls == [tmp_path / "train_x2.partial"] and (target / "seq").is_dir()
     ensure_data(TrainConfig(train_data=str(target)), DataSection(train="tiny"))
     assert len(calls) == 1  # present data is not rendered again
+
+
+def test_several_training_directories_each_render_their_config(tmp_path, monkeypatch):
+    rendered = {}
+
+    def fake_render_dataset(render_cfg, out_dir, progress):
+        rendered[out_dir.name] = render_cfg
+        (out_dir / "seq").mkdir(parents=True)
+        return type("Summary", (), {"rendered": 1, "seconds": 0.0})()
+
+    monkeypatch.setattr("mnss_kit.render.writer.render_dataset", fake_render_dataset)
+    monkeypatch.setattr("mnss_kit.render.config.load_render_config", lambda name, overrides=None: (name, overrides))
+    dirs = [str(tmp_path / "plain"), str(tmp_path / "centre")]
+    (tmp_path / "plain").mkdir()  # present: not rendered
+    ensure_data(TrainConfig(train_data=dirs), DataSection(train=["tiny", "tiny jitter=center"]))
+    assert rendered == {"centre.partial": ("tiny", ["jitter=center"])}
+    with pytest.raises(UserError, match=r"names 1 render config\(s\) for the 2 director"):
+        ensure_data(TrainConfig(train_data=[str(tmp_path / "a"), str(tmp_path / "b")]), DataSection(train="tiny"))
