@@ -159,12 +159,8 @@ class ReferencePasses:
         """taau_pack_pass -> the int8 NPU input (1,h,w,3 + 5 s^2): the LR colour, then the clamped
         history, its weight / ``max_weight`` and the clamp distance pixel-unshuffled, quantized as
         ``ops.quant.quantize`` under ``profile``."""
-        stored, r = to_half(color), to_half(reprojected)
-        lo, hi = taau.neighbourhood_box(taau.rgb_to_ycocg(stored), scale)
-        clamped = np.minimum(np.maximum(r[..., :3], lo), hi)
-        distance = np.abs(r[..., :3] - clamped).sum(axis=-1, keepdims=True)
-        hr = np.concatenate([clamped, r[..., 3:] / np.float32(max_weight), distance], axis=-1)
-        features = np.concatenate([stored, demodulation.pixel_unshuffle(hr, scale)], axis=-1)
+        r = to_half(reprojected)
+        features = taau.steering_features(to_half(color), r[..., :3], r[..., 3:], scale, max_weight)
         return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]
 
     def taau_accumulate(self, npu_output, color, reprojected, jitter, scale: int, q_scale: float, q_zero_point: int,
@@ -172,12 +168,8 @@ class ReferencePasses:
         """taau_accumulate_pass.  npu_output (1,H,W,6) int8 raw steering, color (h,w,3), reprojected
         (H,W,4) -> (history (H,W,4) fp16 values: output and weight, display (H,W,3) uint8 codes)."""
         raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0]
-        stored = to_half(color)
-        current = taau.rgb_to_ycocg(stored)
-        samples, sample_weight = taau.nearby_samples(current, as_jitter(jitter), scale, sample_sigma)
-        spatial = taau.rgb_to_ycocg(taau.bicubic_upsample(stored, as_jitter(jitter), scale))
-        lo, hi = taau.neighbourhood_box(current, scale)
+        terms = taau.current_terms(to_half(color), as_jitter(jitter), scale, sample_sigma)
         r = to_half(reprojected)
-        output, weight = taau.blend(samples, sample_weight, spatial, lo, hi, r[..., :3], r[..., 3:], prior_weight, max_weight,
+        output, weight = taau.blend(*terms, r[..., :3], r[..., 3:], prior_weight, max_weight,
                                     taau.steer_from_raw(raw, correction_bound))
         return to_half(np.concatenate([output, weight], axis=-1)), encode_unorm8(output)

@@ -68,6 +68,13 @@ class Steer:
 NEUTRAL = Steer()
 
 
+def steer_from_raw(raw: torch.Tensor, correction_bound: float) -> Steer:
+    """A steering net's raw output (N, 6, H, W) mapped to its ranges (``ops.taau.steer_from_raw``):
+    gains 2 sigmoid in (0, 2), box widening tanh / 2, correction ``correction_bound`` tanh."""
+    return Steer(history_gain=2.0 * torch.sigmoid(raw[:, 0:1]), sample_gain=2.0 * torch.sigmoid(raw[:, 1:2]),
+                 box_widen=0.5 * torch.tanh(raw[:, 2:3]), correction=correction_bound * torch.tanh(raw[:, 3:6]))
+
+
 def rgb_to_ycocg(x: torch.Tensor) -> torch.Tensor:
     """``(N, 3, H, W)`` RGB -> YCoCg (luma, orange and green chroma)."""
     r, g, b = x.unbind(1)

@@ -121,6 +121,29 @@ def reprojected_history(history: np.ndarray, weight: np.ndarray, motion: np.ndar
     return rgb_to_ycocg(colour), new_weight.astype(np.float32)
 
 
+def current_terms(colour: np.ndarray, jitter, scale: int, sigma: float):
+    """What one frame's LR ``colour`` (h, w, 3) RGB gives the blend, all YCoCg at HR: the nearby
+    samples' mean and total weight, the bicubic frame and the clamp box ``(lo, hi)``."""
+    current = rgb_to_ycocg(colour)
+    samples, sample_weight = nearby_samples(current, jitter, scale, sigma)
+    spatial = rgb_to_ycocg(bicubic_upsample(colour, jitter, scale))
+    return samples, sample_weight, spatial, *neighbourhood_box(current, scale)
+
+
+def steering_features(colour: np.ndarray, history: np.ndarray, history_weight: np.ndarray, scale: int,
+                      max_weight: float) -> np.ndarray:
+    """The ``ntaau`` net's input (h, w, 3 + 5 s^2): the LR colour, then the reprojected YCoCg
+    ``history`` (H, W, 3) clamped to the box, its weight / ``max_weight`` and the clamp distance,
+    pixel-unshuffled (``ops.demodulation.pixel_unshuffle`` order)."""
+    from .demodulation import pixel_unshuffle
+
+    lo, hi = neighbourhood_box(rgb_to_ycocg(colour), scale)
+    clamped = np.minimum(np.maximum(history, lo), hi)
+    distance = np.abs(history - clamped).sum(axis=-1, keepdims=True)
+    hr = np.concatenate([clamped, history_weight / np.float32(max_weight), distance], axis=-1)
+    return np.concatenate([np.asarray(colour, np.float32), pixel_unshuffle(hr, scale)], axis=-1)
+
+
 @dataclass
 class Steer:
     """Per-HR-pixel steering, each ``(H, W, 1 or 3)`` or a scalar (``model.taau.Steer``)."""

@@ -63,20 +63,30 @@ def test_a_steered_sequence_matches_the_reference():
         raw = rng.normal(0, 2, (h * scale, w * scale, 6)).astype(np.float32)
         inputs = torch_taau.taau_inputs(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.tensor([float(reset)]),
                                         state, scale, params)
-        r = nchw(raw)
-        steer = torch_taau.Steer(2 * torch.sigmoid(r[:, 0:1]), 2 * torch.sigmoid(r[:, 1:2]), 0.5 * torch.tanh(r[:, 2:3]),
-                                 bound * torch.tanh(r[:, 3:6]))
-        out, state = torch_taau.blend(inputs, params, steer)
+        out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound))
 
-        ycc = taau.rgb_to_ycocg(colour)
-        samples, sample_weight = taau.nearby_samples(ycc, jitter, scale, params.sample_sigma)
-        spatial = taau.rgb_to_ycocg(taau.bicubic_upsample(colour, jitter, scale))
-        lo, hi = taau.neighbourhood_box(ycc, scale)
+        terms = taau.current_terms(colour, jitter, scale, params.sample_sigma)
         if ref_history is None:
-            history, weight = spatial, np.zeros_like(spatial[..., :1])
+            history, weight = terms[2], np.zeros_like(terms[2][..., :1])  # the bicubic frame, no weight
         else:
             history, weight = taau.reprojected_history(ref_history, ref_weight, motion, reset, scale)
-        ref_history, ref_weight = taau.blend(samples, sample_weight, spatial, lo, hi, history, weight, params.prior_weight,
-                                             params.max_weight, taau.steer_from_raw(raw, bound))
+        ref_history, ref_weight = taau.blend(*terms, history, weight, params.prior_weight, params.max_weight,
+                                             taau.steer_from_raw(raw, bound))
         np.testing.assert_allclose(hwc(out), ref_history, atol=1e-4)
         np.testing.assert_allclose(hwc(state["weight"]), ref_weight, atol=1e-4)
+
+
+def test_the_steering_features_match_the_reference():
+    """The ntaau net's input as the torch model gathers it, against ``ops.taau.steering_features``
+    (what the bundle's pack pass quantizes)."""
+    from mnss_kit.model.families import build_model
+    from mnss_kit.model.ntaau.config import NTAAUConfig
+
+    rng = np.random.default_rng(5)
+    scale, model = 2, build_model(NTAAUConfig())
+    colour, jitter, motion = _frame(rng)
+    state = {"history": nchw(rng.uniform(0, 1, (14, 18, 3)).astype(np.float32)),
+             "weight": nchw(rng.uniform(0, 9, (14, 18, 1)).astype(np.float32))}
+    inputs, features = model.taau_gather(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.zeros(1), state)
+    want = taau.steering_features(colour, hwc(inputs.history), hwc(inputs.history_weight), scale, model.params.max_weight)
+    np.testing.assert_allclose(hwc(features), want, atol=TOLERANCE)

@@ -30,7 +30,7 @@ from torch import nn
 
 from ..blocks import conv_stack
 from ..family import check_frame
-from ..taau import Steer, TAAUInputs, TAAUParams, blend, taau_inputs
+from ..taau import TAAUInputs, TAAUParams, blend, steer_from_raw, taau_inputs
 from .config import STEER_CHANNELS, NTAAUConfig
 
 STAGE_ORDER = ("taau_gather", "steer", "taau_accumulate")
@@ -82,9 +82,7 @@ class Accumulate(nn.Module):
         self.params, self.correction_bound = params, correction_bound
 
     def forward(self, inputs: TAAUInputs, raw):
-        steer = Steer(history_gain=2.0 * torch.sigmoid(raw[:, 0:1]), sample_gain=2.0 * torch.sigmoid(raw[:, 1:2]),
-                      box_widen=0.5 * torch.tanh(raw[:, 2:3]), correction=self.correction_bound * torch.tanh(raw[:, 3:6]))
-        return blend(inputs, self.params, steer)
+        return blend(inputs, self.params, steer_from_raw(raw, self.correction_bound))
 
 
 class NTAAU(nn.Module):
