@@ -22,6 +22,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from mnss_kit.bench.run import model_label  # noqa: E402
 from mnss_kit.eval.variant_sets import VARIANTS, variant_set  # noqa: E402
 from mnss_kit.fileio import atomic_write_json, atomic_write_text, read_json  # noqa: E402
 
@@ -40,13 +41,8 @@ TAAU_MARGIN_DB, BICUBIC_MARGIN_DB = 1.0, 4.0
 INT8_PSNR_DB, INT8_IF_SSIM = 0.1, 0.001
 
 
-def label(model: str) -> str:
-    path = Path(model)
-    return path.parent.name if path.name == "model.pt" else path.stem
-
-
 def evaluate_entry(models: list[str], data: Path, crops: Path | None, int8: bool) -> dict:
-    from mnss_kit.bench.run import quality
+    from mnss_kit.bench.run import int8_at_size, quality_table
     from mnss_kit.eval.baselines import baseline_methods
     from mnss_kit.eval.methods import model_method
     from mnss_kit.eval.run import evaluate
@@ -56,30 +52,18 @@ def evaluate_entry(models: list[str], data: Path, crops: Path | None, int8: bool
     for name in models:
         model, _ = load(name)
         model.eval()
-        methods[label(name)] = model_method(model)
+        methods[model_label(name)] = model_method(model)
         if int8 and name == models[0]:
-            methods[f"{label(name)} int8"] = model_method(quantized(model, data))
+            methods[f"{model_label(name)} int8"] = model_method(int8_at_size(model, REPO / CALIBRATION, data, "heldout"))
     methods.update(baseline_methods(2, BASELINES))
     result = evaluate(methods, data, scale=2, max_frames=FRAMES, crops_dir=crops, progress=False)
-    return {"methods": {m: quality(result["methods"][m]) for m in methods},
-            "sequences": {seq: {m: quality(entry["methods"][m]) for m in methods} for seq, entry in result["sequences"].items()}}
-
-
-def quantized(model, data: Path):
-    from mnss_kit.bench.run import at_size
-    from mnss_kit.model.families import family_of, npu_module
-    from mnss_kit.quantize.api import CALIBRATION_SAMPLES, calibration_samples, int8_model, open_data
-    from mnss_kit.quantize.stage import QuantizeOptions, quantize_module
-
-    samples = calibration_samples(model, open_data(REPO / CALIBRATION, model.scale, family=family_of(model)), CALIBRATION_SAMPLES)
-    art = at_size(quantize_module(npu_module(model), samples, QuantizeOptions(), name="heldout"), npu_module(model), data)
-    return int8_model(model, art)
+    return quality_table(result, methods)
 
 
 def run(models: list[str]) -> dict:
     doc = read_json(RESULTS) if RESULTS.is_file() else {}
     if doc.get("models") != models or doc.get("frames") != FRAMES:
-        doc = {"models": models, "labels": [label(m) for m in models], "frames": FRAMES, "sets": {}}
+        doc = {"models": models, "labels": [model_label(m) for m in models], "frames": FRAMES, "sets": {}}
     for config, base in SETS.items():
         for variant in SHOWN:
             entries = doc["sets"].setdefault(config, {})

@@ -38,12 +38,10 @@ def variant_data(name: str, base: Path) -> Path:
 
 
 def evaluate_variant(model: str, data: Path) -> dict:
-    from mnss_kit.bench.run import quality
+    from mnss_kit.bench.run import quality_table
     from mnss_kit.eval.api import evaluate_model
 
-    result = evaluate_model(model, data, methods=list(METHODS), max_frames=FRAMES, progress=False)
-    return {"methods": {m: quality(result["methods"][m]) for m in METHODS},
-            "sequences": {seq: {m: quality(entry["methods"][m]) for m in METHODS} for seq, entry in result["sequences"].items()}}
+    return quality_table(evaluate_model(model, data, methods=list(METHODS), max_frames=FRAMES, progress=False), METHODS)
 
 
 def write_doc(doc: dict) -> None:

@@ -41,10 +41,10 @@ def write_section_charts(section: dict, out_dir: Path) -> list[Path]:
 
     matplotlib.use("Agg")
     out_dir.mkdir(parents=True, exist_ok=True)
+    from .run import caption
+
     records = list(section["records"].values())
-    settings = section["settings"]
-    frames = f", first {settings['max_frames']} frames per sequence" if settings.get("max_frames") else ""
-    suffix = f" (x{settings['scale']}, {settings['data'].split()[0]}{frames}" + (", quick run)" if settings["quick"] else ")")
+    suffix = f" ({caption(section['settings'])})"
     written = [_scatter(records, stem, xlabel, key, x_of, out_dir / f"{stem}.png", suffix)
                for stem, xlabel, key, x_of in chart_specs(section)]
     written.append(_int8_loss(records, out_dir / "int8_loss.png", suffix))

@@ -150,11 +150,10 @@ def run_bench(request: BenchRequest) -> dict:
     for scale, name in steps:
         if scale not in prepared:
             prepared[scale] = _prepare_section(doc, request, scale, devices)
-        section, data, calibration = prepared[scale]
-        records, settings = section["records"], settings_of(section)
+        records, settings, data, calibration = prepared[scale]
         if name is None:
             new = [] if all(f"{b}/baseline" in records for b in BASELINES) else baseline_records(data, settings)
-        elif all(f"{_label(name)}/{p}" in records for p in ("fp32", "int8")):
+        elif all(f"{model_label(name)}/{p}" in records for p in ("fp32", "int8")):
             continue
         else:
             new = model_records(name, data, calibration, settings, request.work)
@@ -167,9 +166,9 @@ def run_bench(request: BenchRequest) -> dict:
     return doc
 
 
-def _prepare_section(doc: dict, request: BenchRequest, scale: int, devices: tuple[str, ...]) -> tuple[dict, Path, Path]:
-    """The section of ``scale`` in ``doc`` (resumed when its settings match), its held-out data and
-    its calibration data (both rendered into ``request.work`` once)."""
+def _prepare_section(doc: dict, request: BenchRequest, scale: int, devices: tuple[str, ...]) -> tuple[dict, Settings, Path, Path]:
+    """The records of the section of ``scale`` in ``doc`` (resumed when its settings match), its
+    settings, its held-out data and its calibration data (both rendered into ``request.work`` once)."""
     preset = QUICK if request.quick else FULL
     config, overrides = held_out_config(request.quick, scale) if request.data is None else (None, [])
     settings = Settings(quick=request.quick, scale=scale, devices=devices,
@@ -185,7 +184,7 @@ def _prepare_section(doc: dict, request: BenchRequest, scale: int, devices: tupl
             log.info("%s of %s was made with other settings; starting it afresh", name, request.out)
         doc["benches"][name] = {"settings": plain, "records": {}}
     data = request.data or _rendered(config, overrides, scale, request.work / "data", request.progress)
-    return doc["benches"][name], data, _calibration_data(request.work / "data", scale, request.progress)
+    return doc["benches"][name]["records"], settings, data, _calibration_data(request.work / "data", scale, request.progress)
 
 
 def _read_doc(out: Path) -> dict:
@@ -198,9 +197,10 @@ def _read_doc(out: Path) -> dict:
     return doc
 
 
-def settings_of(section: dict) -> Settings:
-    raw = section["settings"]
-    return Settings(**{**raw, "latency_size": tuple(raw["latency_size"]), "devices": tuple(raw["devices"])})
+def caption(settings: dict) -> str:
+    """What one section's numbers are of, for its charts and the report: scale, data, frames."""
+    frames = f", first {settings['max_frames']} frames per sequence" if settings.get("max_frames") else ""
+    return f"x{settings['scale']}, {settings['data'].split()[0]}{frames}" + (", quick run" if settings.get("quick") else "")
 
 
 def sections(doc: dict) -> list[tuple[str, dict]]:
@@ -217,7 +217,8 @@ def _plain(value):
     return value
 
 
-def _label(name: str) -> str:
+def model_label(name: str) -> str:
+    """A checkpoint's name in records and tables: its run directory for ``runs/<name>/model.pt``."""
     path = Path(name)
     return path.parent.name if path.name == "model.pt" else path.stem
 
@@ -255,19 +256,15 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
     from ..eval.methods import model_method
     from ..eval.run import evaluate
     from ..model.checkpoint import load
-    from ..model.families import family_of, npu_module
+    from ..model.families import family_of
     from ..model.macs import count_macs
-    from ..quantize.api import calibration_samples, int8_model, open_data, CALIBRATION_SAMPLES
-    from ..quantize.stage import QuantizeOptions, quantize_module
     from .latency import npu_latency
 
     model, record = load(name)
     model.eval()
-    label = _label(name)
+    label = model_label(name)
     family = family_of(model)
-    samples = calibration_samples(model, open_data(calibration, model.scale, family=family), CALIBRATION_SAMPLES)
-    art = at_size(quantize_module(npu_module(model), samples, QuantizeOptions(), name=label), npu_module(model), data)
-    methods = {"fp32": model_method(model), "int8": model_method(int8_model(model, art))}
+    methods = {"fp32": model_method(model), "int8": model_method(int8_at_size(model, calibration, data, label))}
     result = evaluate(methods, data, scale=model.scale, max_frames=settings.max_frames, progress=False)
     macs = count_macs(model)
     latency = npu_latency(model, settings.latency_size, settings.latency_repeats)
@@ -283,6 +280,18 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
             "ort_u8_path_ms": latency["ort-cpu"]["int8_u8_ms"],
             **emulated(name, data, calibration, settings, work / "bundles" / label)}
     return [fp32, int8]
+
+
+def int8_at_size(model, calibration: Path, data: Path, name: str):
+    """A copy of ``model`` whose NPU stage is quantized (minmax) on ``calibration`` and runs in
+    LiteRT's reference kernels at ``data``'s HR size."""
+    from ..model.families import family_of, npu_module
+    from ..quantize.api import CALIBRATION_SAMPLES, calibration_samples, int8_model, open_data
+    from ..quantize.stage import QuantizeOptions, quantize_module
+
+    samples = calibration_samples(model, open_data(calibration, model.scale, family=family_of(model)), CALIBRATION_SAMPLES)
+    art = at_size(quantize_module(npu_module(model), samples, QuantizeOptions(), name=name), npu_module(model), data)
+    return int8_model(model, art)
 
 
 def at_size(art, module, data: Path):
@@ -303,6 +312,12 @@ def at_size(art, module, data: Path):
 def quality(summary: dict) -> dict:
     """The quality keys of one method's summary in an eval result (bench and size records)."""
     return {k: summary[k] for k in ("psnr", "ssim", "if_ssim", "temporal_error", "phase_offset")}
+
+
+def quality_table(result: dict, methods) -> dict:
+    """:func:`quality` of each of ``methods`` in an eval result, over all frames and per sequence."""
+    return {"methods": {m: quality(result["methods"][m]) for m in methods},
+            "sequences": {seq: {m: quality(entry["methods"][m]) for m in methods} for seq, entry in result["sequences"].items()}}
 
 
 def device_estimates(model, devices: tuple[str, ...], hr_size: tuple[int, int]) -> dict[str, float]:

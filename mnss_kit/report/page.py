@@ -84,21 +84,17 @@ def _images(paths: list[str], alt: str) -> list[str]:
 
 def bench_sections(doc: dict, charts: Path, staging: Path) -> list[str]:
     """One bench table and its charts per scale section (charts from ``charts/<section>/``)."""
-    from ..bench.run import sections
+    from ..bench.run import caption, sections
 
     out = ["<h2>Bench</h2>", f"<p class=note>{_e(doc.get('note', ''))}</p>",
            "<p class=estimate>Device milliseconds are estimates from the device profiles, not measurements.</p>"]
     for name, section in sections(doc):
-        out += bench_section(name, section, _copy_images(charts / name, staging, f"bench/{name}"))
+        out += bench_section(name, caption(section["settings"]), section, _copy_images(charts / name, staging, f"bench/{name}"))
     return out
 
 
-def bench_section(name: str, section: dict, charts: list[str]) -> list[str]:
-    settings = section["settings"]
-    devices = settings.get("devices", [])
-    quick = " (quick run: shortened sequences)" if settings.get("quick") else ""
-    if settings.get("max_frames"):
-        quick += f", first {settings['max_frames']} frames per sequence"
+def bench_section(name: str, title: str, section: dict, charts: list[str]) -> list[str]:
+    devices = section["settings"].get("devices", [])
     header = ["model", "family", "precision", "PSNR", "SSIM", "IF-SSIM", "MACs/pixel", "CPU ms (xnnpack)"]
     header += [f'<span class=estimate>{_e(d)} ms (estimate)</span>' for d in devices]
     rows = []
@@ -107,7 +103,7 @@ def bench_section(name: str, section: dict, charts: list[str]) -> list[str]:
         rows.append([_e(r["name"]), _e(r["family"]), _e(r["precision"]), _num(r["psnr"]), _num(r["ssim"], 4),
                      _num(r["if_ssim"], 4), _num(r["macs_per_pixel"], 0), _num(cpu)]
                     + [_num((r.get("device_ms") or {}).get(d)) for d in devices])
-    return [f"<h3 id=bench-{_e(name)}>{_e(name)} on {_e(settings.get('data', ''))}{_e(quick)}</h3>",
+    return [f"<h3 id=bench-{_e(name)}>{_e(title)}</h3>",
             table(header, rows), *_images(charts, "bench chart")]
 
 

@@ -95,6 +95,7 @@ def test_every_scale_gets_its_own_section_in_one_file(fake_measurements, tmp_pat
     with pytest.raises(UserError, match=r"model_x4 is x4 but the bench is x2 \(leave out --scale and --data"):
         bench_run.run_bench(bench_run.BenchRequest(models=["a", "model_x4"], scale=2, **request))
     fake_measurements.clear()
+    monkeypatch.chdir(tmp_path)  # default_models also reads ./runs
     monkeypatch.setattr("mnss_kit.model.checkpoint.shipped_names", lambda: ["a", "model_x4"])
     doc = bench_run.run_bench(bench_run.BenchRequest(scale=4, **request))  # the default models of x4 only
     assert fake_measurements == [] and "x2" in doc["benches"]  # x4 resumed, the x2 section kept
