@@ -13,7 +13,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent / "android"))  # the Java
 from java_harness import JavaCore, compile_core, compile_gl_pipeline, missing_jogl, missing_tools  # noqa: E402
 
 
-
 @pytest.fixture(scope="session")
 def java_core(tmp_path_factory) -> JavaCore:
     reason = missing_tools()
