@@ -5,7 +5,8 @@ what runs in which order on GPU and NPU.  :class:`ScheduleRunner` keeps every re
 schedule names (textures and buffers, as numpy arrays), fills the inputs each frame, runs each
 GPU step through a passes backend (:class:`~.reference.ReferencePasses` or
 :class:`~.mesa.MesaPasses`, both with the same methods) and each NPU step through a callable,
-skips the ``skip_on_reset`` steps on a reset frame, and applies ``end_of_frame`` swaps.
+skips the ``skip_on_reset`` steps on a reset frame, and applies ``end_of_frame`` swaps.  At the
+start of a sequence every ``state`` resource is zero, as a freshly allocated texture.
 
 ``PASS_CALLS`` is the one place that knows how a pass's bindings and uniforms map to the
 backend's method arguments.
@@ -110,11 +111,8 @@ def _remodulate(p, c: Call):
 
 
 def _taau_reproject(p, c: Call):
-    reset, history, motion = bool(c.u("u_reset")), c.read["history"], c.read["motion"]
-    if history is None:  # the first frame of a sequence: nothing accumulated yet (and u_reset is 1)
-        s = c.u("u_scale")
-        history = np.zeros((motion.shape[0] * s, motion.shape[1] * s, 4), np.float32)
-    return {"reprojected": p.taau_reproject(history, motion, c.u("u_scale"), reset, c.u("u_blur_penalty"))}
+    return {"reprojected": p.taau_reproject(c.read["history"], c.read["motion"], c.u("u_scale"), bool(c.u("u_reset")),
+                                            c.u("u_blur_penalty"))}
 
 
 def _taau_pack(p, c: Call):
@@ -173,6 +171,7 @@ class ScheduleRunner:
         self.schedule, self.weights, self.passes, self.npu = schedule, weights, passes, npu
         self.profile, self.scale = profile, scale
         self.inputs = [r["name"] for r in resources if r["role"] == "input"]
+        self.state = [r for r in resources if r["role"] == "state"]
         self.values: dict[str, np.ndarray | None] = {}
         self.previous_offset: np.ndarray | None = None
 
@@ -183,6 +182,9 @@ class ScheduleRunner:
     def run_frame(self, inputs: dict[str, np.ndarray], jitter, reset: bool) -> list[StepResult]:
         """One frame: ``inputs`` for every input resource; returns each step's writes in order."""
         offset = np.asarray(jitter, np.float32).reshape(2)
+        if self.previous_offset is None:  # a sequence starts: state textures as freshly allocated, zero
+            for r in self.state:
+                self.values[r["name"]] = np.zeros((r["size"][1], r["size"][0], r["channels"]), np.float32)
         reset = bool(reset) or self.previous_offset is None
         previous = offset if self.previous_offset is None else self.previous_offset
         frame = {"offset": offset, "subpixel": subpixel_index(offset, self.scale), "previous_offset": previous,
