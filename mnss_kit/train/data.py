@@ -123,7 +123,7 @@ def render(render_config: str, out_dir: Path, progress: bool) -> None:
     except ImportError as e:
         raise UserError(f"cannot render {out_dir}: the renderer is not available in this installation ({e})") from None
     name, *overrides = render_config.split()
-    cfg = load_render_config(name, overrides) if overrides else load_render_config(name)
+    cfg = load_render_config(name, overrides or None)
     # Render beside the target and rename when complete: a killed render never looks like data,
     # and the next run continues it (the renderer skips frames already written).
     staging = out_dir.with_name(out_dir.name + ".partial")

@@ -59,7 +59,7 @@ def test_missing_data_is_rendered_then_renamed(tmp_path, monkeypatch):
         return type("Summary", (), {"rendered": 1, "seconds": 0.0})()
 
     monkeypatch.setattr("mnss_kit.render.writer.render_dataset", fake_render_dataset)
-    monkeypatch.setattr("mnss_kit.render.config.load_render_config", lambda name: name)
+    monkeypatch.setattr("mnss_kit.render.config.load_render_config", lambda name, overrides=None: name)
     target = tmp_path / "train_x2"
     ensure_data(TrainConfig(train_data=str(target)), DataSection(train="tiny"))
     assert calls == [tmp_path / "train_x2.partial"] and (target / "seq").is_dir()
