@@ -166,10 +166,11 @@ class ReferencePasses:
     def taau_accumulate(self, npu_output, color, reprojected, jitter, scale: int, q_scale: float, q_zero_point: int,
                         correction_bound: float, sample_sigma: float, prior_weight: float, max_weight: float):
         """taau_accumulate_pass.  npu_output (1,H,W,6) int8 raw steering, color (h,w,3), reprojected
-        (H,W,4) -> (history (H,W,4) fp16 values: output and weight, display (H,W,3) uint8 codes)."""
+        (H,W,4) -> (history (H,W,4) fp16 values: the uncorrected blend and its weight, display
+        (H,W,3) uint8 codes of the corrected output)."""
         raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0]
         terms = taau.current_terms(to_half(color), as_jitter(jitter), scale, sample_sigma)
         r = to_half(reprojected)
-        output, weight = taau.blend(*terms, r[..., :3], r[..., 3:], prior_weight, max_weight,
-                                    taau.steer_from_raw(raw, correction_bound))
-        return to_half(np.concatenate([output, weight], axis=-1)), encode_unorm8(output)
+        output, history, weight = taau.blend(*terms, r[..., :3], r[..., 3:], prior_weight, max_weight,
+                                             taau.steer_from_raw(raw, correction_bound))
+        return to_half(np.concatenate([history, weight], axis=-1)), encode_unorm8(output)

@@ -16,7 +16,8 @@ samples as they come.  ``spatial`` is the jitter-aware bicubic frame with a smal
 ``p``, which fills pixels no sample has reached yet.
 
 A :class:`Steer` scales ``W`` and ``w`` per pixel, widens or narrows the clamp box and adds a
-bounded correction; :data:`NEUTRAL` (all factors 1, no widening, no correction) is TAAU itself,
+bounded correction to the displayed colour only: the history keeps the uncorrected blend, so a
+correction cannot feed back and build up over frames on a static camera; :data:`NEUTRAL` (all factors 1, no widening, no correction) is TAAU itself,
 so a steering net whose outputs are zero starts as exactly this baseline.
 
 Reprojection is bilinear.  Each bilinear fetch blurs, and under slow sub-pixel motion the blur
@@ -62,7 +63,7 @@ class Steer:
     history_gain: torch.Tensor | float = 1.0  # multiplies the reprojected history weight W
     sample_gain: torch.Tensor | float = 1.0  # multiplies this frame's sample weight w
     box_widen: torch.Tensor | float = 0.0  # clamp box [lo - e (hi - lo), hi + e (hi - lo)]
-    correction: torch.Tensor | float = 0.0  # added to the blended colour (YCoCg)
+    correction: torch.Tensor | float = 0.0  # added to the displayed colour (YCoCg), not to the history
 
 
 NEUTRAL = Steer()
@@ -209,7 +210,7 @@ def taau_inputs(color: torch.Tensor, jitter: torch.Tensor, motion: torch.Tensor,
 
 def blend(inputs: TAAUInputs, params: TAAUParams, steer: Steer = NEUTRAL) -> tuple[torch.Tensor, dict]:
     """The displayed RGB ``(N, 3, H, W)`` in [0, 1] and the next state of one (steered) TAAU step:
-    ``history`` the output (RGB), ``weight`` its accumulated sample weight."""
+    ``history`` the blend before the correction (RGB in [0, 1]), ``weight`` its accumulated sample weight."""
     span = inputs.hi - inputs.lo
     lo, hi = inputs.lo - steer.box_widen * span, inputs.hi + steer.box_widen * span
     history = torch.minimum(torch.maximum(inputs.history, lo), hi)
@@ -218,5 +219,6 @@ def blend(inputs: TAAUInputs, params: TAAUParams, steer: Steer = NEUTRAL) -> tup
     p = params.prior_weight
     blended = (weight * history + sample_weight * inputs.samples + p * inputs.spatial) / (weight + sample_weight + p)
     output = ycocg_to_rgb(blended + steer.correction).clamp(0.0, 1.0)
-    state = {"history": output, "weight": (weight + sample_weight).clamp(max=params.max_weight)}
+    history = ycocg_to_rgb(blended).clamp(0.0, 1.0)
+    state = {"history": history, "weight": (weight + sample_weight).clamp(max=params.max_weight)}
     return output, state

@@ -163,13 +163,15 @@ def steer_from_raw(raw: np.ndarray, correction_bound: float) -> Steer:
 
 
 def blend(samples, sample_weight, spatial, lo, hi, history, history_weight, prior_weight: float, max_weight: float,
-          steer: Steer = Steer()) -> tuple[np.ndarray, np.ndarray]:
-    """Displayed RGB (H, W, 3) in [0, 1] and the accumulated weight (H, W, 1) of one steered TAAU step
-    (inputs in YCoCg)."""
+          steer: Steer = Steer()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One steered TAAU step (inputs in YCoCg): the displayed RGB (H, W, 3) in [0, 1], the next
+    history (the blend before the correction, RGB in [0, 1]) and its accumulated weight (H, W, 1).
+    The correction is for display only, so it cannot build up in the history."""
     span = hi - lo
     clamped = np.minimum(np.maximum(history, lo - steer.box_widen * span), hi + steer.box_widen * span)
     weight = history_weight * steer.history_gain
     current = sample_weight * steer.sample_gain
     mixed = (weight * clamped + current * samples + prior_weight * spatial) / (weight + current + prior_weight)
     output = np.clip(ycocg_to_rgb(mixed + steer.correction), 0.0, 1.0)
-    return output.astype(np.float32), np.minimum(weight + current, max_weight).astype(np.float32)
+    history = np.clip(ycocg_to_rgb(mixed), 0.0, 1.0)
+    return output.astype(np.float32), history.astype(np.float32), np.minimum(weight + current, max_weight).astype(np.float32)

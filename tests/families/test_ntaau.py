@@ -52,6 +52,24 @@ def test_the_correction_is_bounded():
     torch.testing.assert_close(shift, torch.full_like(shift, 0.05), atol=1e-5, rtol=0)
 
 
+def test_the_correction_stays_out_of_the_history():
+    """The correction changes the displayed frame only: the next history is the blend of the same
+    gains and box without it, so a correction cannot build up over frames on a static camera."""
+    g = torch.Generator().manual_seed(1)
+    colour = 0.3 + 0.4 * torch.rand(1, 3, 6, 8, generator=g)
+    params = taau.TAAUParams()
+    inputs = taau.taau_inputs(colour, torch.zeros(1, 2), torch.zeros(1, 2, 6, 8), torch.zeros(1), None, 2, params)
+    model = build_model(NTAAUConfig(correction_bound=0.05))
+    raw = torch.randn(1, 6, 12, 16, generator=g)
+    uncorrected = raw.clone()
+    uncorrected[:, 3:] = 0.0
+    corrected_out, corrected_state = model.taau_accumulate(inputs, raw)
+    plain_out, plain_state = model.taau_accumulate(inputs, uncorrected)
+    assert (corrected_out - plain_out).abs().max() > 0.01
+    torch.testing.assert_close(corrected_state["history"], plain_out, atol=1e-6, rtol=0)
+    torch.testing.assert_close(corrected_state["weight"], plain_state["weight"], atol=0, rtol=0)
+
+
 def test_random_steering_stays_finite_and_in_range():
     model = randomise_convs(build_model(NTAAUConfig()), noise=2.0)
     state = None

@@ -70,9 +70,10 @@ def test_a_steered_sequence_matches_the_reference():
             history, weight = terms[2], np.zeros_like(terms[2][..., :1])  # the bicubic frame, no weight
         else:
             history, weight = taau.reprojected_history(ref_history, ref_weight, motion, reset, scale)
-        ref_history, ref_weight = taau.blend(*terms, history, weight, params.prior_weight, params.max_weight,
-                                             taau.steer_from_raw(raw, bound))
-        np.testing.assert_allclose(hwc(out), ref_history, atol=1e-4)
+        ref_out, ref_history, ref_weight = taau.blend(*terms, history, weight, params.prior_weight, params.max_weight,
+                                                      taau.steer_from_raw(raw, bound))
+        np.testing.assert_allclose(hwc(out), ref_out, atol=1e-4)
+        np.testing.assert_allclose(hwc(state["history"]), ref_history, atol=1e-4)
         np.testing.assert_allclose(hwc(state["weight"]), ref_weight, atol=1e-4)
 
 

@@ -1,6 +1,6 @@
 """The ntaau family's GPU side of a bundle: shaders used, resources, frame schedule.
 
-Per frame: ``taau_reproject_pass`` (the previous output and its weight warped to this frame;
+Per frame: ``taau_reproject_pass`` (the previous uncorrected blend and its weight warped to this frame;
 weight 0 on a reset), ``taau_pack_pass`` (the int8 NPU input at LR), the NPU steering net,
 ``taau_accumulate_pass`` (the steered TAAU blend: display and the next history).  No learned
 weights run on the GPU.  The building blocks are :mod:`mnss_kit.gpu.plan`'s.
@@ -46,7 +46,7 @@ def resources(config: NTAAUConfig, lr_size: tuple[int, int]) -> list[dict]:
     return [
         _tex("color", lr, P.INPUT_FORMATS["color"], "input", "jittered LR colour, display values in [0, 1]", 3),
         _tex("motion", lr, P.INPUT_FORMATS["motion"], "input", "LR motion in LR pixels, pointing to the previous frame", 2),
-        _tex("history", hr, P.HISTORY_FORMAT, "state", "the previous output (rgb) and its accumulated weight (a)", 4),
+        _tex("history", hr, P.HISTORY_FORMAT, "state", "the previous blend before the correction (rgb) and its accumulated weight (a)", 4),
         _tex("reprojected", hr, "rgba16f", "intermediate", "the history warped to this frame (YCoCg) and its weight", 4),
         _buf("npu_input", input_words(config, lr_size), "int8 NHWC (1, h, w, 3 + 5 s^2) NPU input at LR, 4 bytes per word, "
              "little-endian"),

@@ -3,7 +3,7 @@
 Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``
 (``model.taau`` defines every step of the accumulation):
 
-    taau_gather      (gpu)  TAAU's inputs: the previous output and its weight reprojected
+    taau_gather      (gpu)  TAAU's inputs: the previous blend and its weight reprojected
                             (bilinear warp, blur undone, zero weight off-screen and after
                             a reset), the Gaussian mean of the nearby jittered samples, the
                             jitter-aware bicubic frame and the 3x3 LR clamp box; and the
@@ -12,13 +12,14 @@ Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``
                             pixel-unshuffled)
     steer            (npu)  3x3 convs at LR, pixel shuffle -> 6 raw values per HR pixel
     taau_accumulate  (gpu)  history gain 2 sigmoid(a), sample gain 2 sigmoid(b), box widening
-                            tanh(c) / 2, correction bound * tanh(d) (YCoCg); TAAU's blend
-                            with them
+                            tanh(c) / 2, correction bound * tanh(d) (YCoCg, display
+                            only); TAAU's blend with them
 
 A fresh net outputs zeros, which is TAAU itself: training starts at the baseline, and the net's
 reach beyond it is bounded (a correction of at most ``correction_bound`` per channel).
 
-State: ``history`` (N,3,H,W) the previous output (RGB), ``weight`` (N,1,H,W) its accumulated
+State: ``history`` (N,3,H,W) the previous blend before the correction (RGB; the correction
+is for display only, so it cannot build up over frames), ``weight`` (N,1,H,W) its accumulated
 sample weight.  A reset frame (camera cut, first frame) gives the history zero weight.
 """
 

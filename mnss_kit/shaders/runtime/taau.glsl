@@ -99,13 +99,21 @@ Steer steer_from_raw(float raw[6], float correction_bound) {
     return s;
 }
 
-// One steered TAAU step (ops.taau.blend): the displayed RGB in [0, 1] (rgb) and the accumulated
-// weight (a).  `history` is the reprojected YCoCg history (rgb) and its weight (a).
-vec4 steered_blend(Neighbourhood n, vec3 spatial, vec4 history, Steer s, float prior_weight, float max_weight) {
+// One steered TAAU step (ops.taau.blend).  `history` is the reprojected YCoCg history (rgb) and
+// its weight (a).  The correction goes to the display only: the next history is the blend before it.
+struct Blended {
+    vec3 display;  // RGB in [0, 1]
+    vec4 history;  // the uncorrected blend, RGB in [0, 1] (rgb), and the accumulated weight (a)
+};
+
+Blended steered_blend(Neighbourhood n, vec3 spatial, vec4 history, Steer s, float prior_weight, float max_weight) {
     vec3 span = n.hi - n.lo;
     vec3 clamped = min(max(history.rgb, n.lo - s.box_widen * span), n.hi + s.box_widen * span);
     float weight = history.a * s.history_gain;
     float current = n.samples.a * s.sample_gain;
     vec3 mixed = (weight * clamped + current * n.samples.rgb + prior_weight * spatial) / (weight + current + prior_weight);
-    return vec4(clamp(ycocg_to_rgb(mixed + s.correction), 0.0, 1.0), min(weight + current, max_weight));
+    Blended b;
+    b.display = clamp(ycocg_to_rgb(mixed + s.correction), 0.0, 1.0);
+    b.history = vec4(clamp(ycocg_to_rgb(mixed), 0.0, 1.0), min(weight + current, max_weight));
+    return b;
 }

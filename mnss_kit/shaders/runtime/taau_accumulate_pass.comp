@@ -3,8 +3,8 @@
 //   in   npu_output   std430 uint[]  int8 NHWC (1, H, W, 6): the steering net's raw output
 //        color        LR rgba16f     jittered LR colour, display values
 //        reprojected  HR rgba16f     taau_reproject_pass
-//   out  history      HR rgba16f     the output (rgb) and its accumulated weight (a): the next history
-//        display      HR rgba8       the output as 8-bit display codes
+//   out  history      HR rgba16f     the blend before the correction (rgb) and its accumulated weight (a)
+//        display      HR rgba8       the corrected output as 8-bit display codes
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -45,8 +45,8 @@ void main() {
     }
     Neighbourhood n = neighbourhood_at(color, hr, u_jitter, u_scale, u_sample_sigma);
     vec3 spatial = spatial_at(color, hr, u_jitter, u_scale);
-    vec4 out_ = steered_blend(n, spatial, texelFetch(reprojected, hr, 0), steer_from_raw(raw, u_correction_bound),
+    Blended b = steered_blend(n, spatial, texelFetch(reprojected, hr, 0), steer_from_raw(raw, u_correction_bound),
                               u_prior_weight, u_max_weight);
-    imageStore(history, hr, round_to_half(out_));
-    imageStore(display, hr, encode_unorm8(vec4(out_.rgb, 1.0)));
+    imageStore(history, hr, round_to_half(b.history));
+    imageStore(display, hr, encode_unorm8(vec4(b.display, 1.0)));
 }
