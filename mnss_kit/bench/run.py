@@ -117,7 +117,7 @@ def held_out_config(quick: bool, scale: int) -> tuple[str, list[str]]:
     name = FULL["data"] if scale == 2 else f"test_x{scale}"
     if not (CONFIG_DIR / "data" / f"{name}.yaml").is_file():
         raise UserError(f"no built-in held-out data set at x{scale} (mnss_kit/configs/data/{name}.yaml): give --data")
-    return name, []
+    return name, [f"frames={FULL['max_frames']}"]  # only the frames the bench measures are rendered
 
 
 def bench_scale(request: BenchRequest) -> int | None:
@@ -183,7 +183,7 @@ def _prepare_section(doc: dict, request: BenchRequest, scale: int, devices: tupl
         if kept is not None:
             log.info("%s of %s was made with other settings; starting it afresh", name, request.out)
         doc["benches"][name] = {"settings": plain, "records": {}}
-    data = request.data or _rendered(config, overrides, scale, request.work / "data", request.progress)
+    data = request.data or _rendered(config, overrides, request.work / "data", request.progress)
     return doc["benches"][name]["records"], settings, data, _calibration_data(request.work / "data", scale, request.progress)
 
 
@@ -223,12 +223,12 @@ def model_label(name: str) -> str:
     return path.parent.name if path.name == "model.pt" else path.stem
 
 
-def _rendered(config: str, overrides: list[str], scale: int, root: Path, progress: bool) -> Path:
+def _rendered(config: str, overrides: list[str], root: Path, progress: bool) -> Path:
     """The render config ``config`` (with ``overrides``) rendered into ``root`` (once; reused afterwards)."""
     from ..render.config import load_render_config
     from ..render.writer import render_dataset
 
-    out = root / (config if not overrides else f"{config}_x{scale}")
+    out = root / "_".join([config, *(o.replace("=", "") for o in overrides)])  # e.g. test_x2_frames30
     render_dataset(load_render_config(config, overrides or None), out, progress=progress)  # skips frames already present
     return out
 

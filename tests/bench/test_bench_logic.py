@@ -46,7 +46,7 @@ def test_record_schema(changes, problem):
 def fake_measurements(monkeypatch, tmp_path):
     """The bench with data preparation and measurements replaced by counters and fixed records."""
     calls = []
-    monkeypatch.setattr(bench_run, "_rendered", lambda config, overrides, scale, root, progress: tmp_path / config)
+    monkeypatch.setattr(bench_run, "_rendered", lambda config, overrides, root, progress: tmp_path / config)
     monkeypatch.setattr(bench_run, "_calibration_data", lambda root, scale, progress: tmp_path / "calibration")
     monkeypatch.setattr(bench_run, "model_scale", lambda name: 4 if name.endswith("_x4") else 2)
     monkeypatch.setattr(bench_run, "baseline_records", lambda data, settings: calls.append("baselines") or [
@@ -113,3 +113,12 @@ def test_charts_are_drawn_per_scale_from_a_bench_document(tmp_path):
     stems = {"psnr_vs_macs.png", "psnr_vs_cpu_ms.png", "if_ssim_vs_macs.png", "psnr_vs_ms_snapdragon_8_gen_1.png", "int8_loss.png"}
     assert {f"{p.parent.name}/{p.name}" for p in written} == {f"{s}/{n}" for s in ("x2", "x4") for n in stems}
     assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in written)
+
+
+def test_the_full_bench_renders_only_the_frames_it_measures():
+    from mnss_kit.render.config import load_render_config
+
+    for scale in (2, 4):
+        config, overrides = bench_run.held_out_config(False, scale)
+        sequences = load_render_config(config, overrides).sequences
+        assert {s.frames for s in sequences} == {bench_run.FULL["max_frames"]}, (config, overrides)
