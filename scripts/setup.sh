@@ -5,7 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 apt_packages=(chromium glslang-tools junit4 libandroid-json-java libegl1 libegl-mesa0 libgl1-mesa-dri
-              libjogl2-java libjogl2-jni libgluegen2-rt-java libgluegen2-jni)  # JOGL: GLES from Java on Mesa; chromium: the report page test
+              libjogl2-java libjogl2-jni libgluegen2-rt-java libgluegen2-jni  # JOGL: GLES from Java on Mesa; chromium: the report page test
+              sweethome3d-furniture)  # CC0 models and textures of the rooms scenes (docs/assets.md)
 missing=()
 for p in "${apt_packages[@]}"; do
     dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")

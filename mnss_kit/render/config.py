@@ -28,7 +28,7 @@ from ..config import CONFIG_DIR, apply_overrides, from_dict, read_yaml, resolve_
 from ..errors import UserError
 from ..ops import jitter as jitter_ops
 
-BUILTIN_SCENES = ("arena", "town", "flight", "factory")
+BUILTIN_SCENES = ("arena", "town", "flight", "factory", "rooms", "rooms_unseen")
 SCENE_SUFFIXES = (".gltf", ".glb", ".obj")
 
 

@@ -1,4 +1,5 @@
-"""Built-in scenes (three modelled on game genres, one industrial interior) and the scene-file import path."""
+"""Built-in scenes (three modelled on game genres, one industrial interior, furnished rooms from the
+installed furniture catalogue in a training and an unseen variant) and the scene-file import path."""
 
 from __future__ import annotations
 
@@ -6,9 +7,10 @@ from ...errors import UserError
 from ..camera import CameraPath
 from ..config import RenderConfig, SequenceConfig, resolve_asset
 from ..scene import Scene, Sun, static_instances
-from . import arena, factory, flight, town
+from . import arena, factory, flight, rooms, town
 
-BUILDERS = {"arena": arena.build, "town": town.build, "flight": flight.build, "factory": factory.build}
+BUILDERS = {"arena": arena.build, "town": town.build, "flight": flight.build, "factory": factory.build,
+            "rooms": rooms.build, "rooms_unseen": rooms.build_unseen}
 
 
 def build_scene(seq: SequenceConfig, cfg: RenderConfig) -> Scene:
