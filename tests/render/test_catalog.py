@@ -41,7 +41,8 @@ def write_catalog(path, count: int = 24, shared_texture: bool = True):
             archive.writestr(f"cat/{name}/{name}.mtl", "newmtl skin\nKd 1 1 1\nmap_Kd skin.png\n")
             archive.writestr(f"cat/{name}/skin.png", _png(0 if shared_texture and k < 2 else k))
             lines += [f"id#{k}=Test#{name}", f"name#{k}=Prop {k}", f"category#{k}=Misc", f"model#{k}=/cat/{name}/{name}.obj",
-                      f"width#{k}=50", f"height#{k}=120", f"depth#{k}=80", f"elevation#{k}={30 if k == 3 else 0}"]
+                      f"width#{k}={340 if k % 5 == 4 else 50}", f"height#{k}=120", f"depth#{k}={300 if k % 5 == 4 else 80}",
+                      f"elevation#{k}={30 if k == 3 else 0}"]  # every fifth prop as wide as a room allows
         archive.writestr("PluginFurnitureCatalog.properties", "\n".join(lines) + "\n")
     return path
 

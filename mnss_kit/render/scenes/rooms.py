@@ -110,13 +110,14 @@ def furnish(b: common.SceneBuilder, rng: np.random.Generator, props: list[catalo
     """Furniture against the walls of every room, clear of the doorways, and in the corners of the
     floor (off the runner's route along the room's axes), some of it sliding or spinning."""
     small = [p for p in props if max(p.size[0], p.size[2]) <= CORNER_PROP_M] or props
+    fits = [p for p in props if DOOR_CLEARANCE + p.size[0] <= ROOM / 2 - WALL] or small  # between a doorway and a corner
     for i in range(GRID):
         for j in range(GRID):
             x, z = room_centre(i, j)
             for _ in range(int(rng.integers(4, 8))):
-                prop = props[int(rng.integers(len(props)))]
+                prop = fits[int(rng.integers(len(fits)))]
                 side = int(rng.integers(4))
-                reach = max(prop.size[0], prop.size[2]) / 2
+                reach = prop.size[0] / 2  # its width runs along the wall
                 along = float(rng.uniform(DOOR_CLEARANCE + reach, ROOM / 2 - WALL - reach)) * rng.choice([-1.0, 1.0])
                 back = ROOM / 2 - WALL / 2 - prop.size[2] / 2 - 0.05
                 px, pz = [(along, back), (back, along), (along, -back), (-back, along)][side]
