@@ -19,10 +19,12 @@ from pathlib import Path
 
 HELP = "run the whole pipeline on a tiny built-in scene set (render, train, eval, quantize, export, emulate) and write a report"
 
+from .zoo import DEFAULT_MODEL
+
 log = logging.getLogger(__name__)
 
 MODEL_CONFIG = "mnss_x2_tiny"
-SHIPPED_MODEL = "mnss_x2"  # the default model, trained by the toolkit on the full training set
+SHIPPED_MODEL = DEFAULT_MODEL  # the default model, trained by the toolkit on the full training set
 TRAIN_DATA = "tiny"
 TEST_DATA = "tiny_test"
 

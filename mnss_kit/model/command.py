@@ -26,7 +26,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if rows:
         print("Shipped checkpoints:")
-        print(_table(rows, ("name", "scale", "macs_per_pixel", "params", "path")))
+        shown = [{**r, "default": "yes" if r["default"] else ""} for r in rows]
+        print(_table(shown, ("name", "default", "family", "scale", "macs_per_pixel", "params", "path")))
     else:
         print("No checkpoint is shipped yet (mnss_kit/zoo/ is empty); train one with `mnss-kit train`.")
     if "configs" in listing:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 
 def checkpoint_rows() -> list[dict]:
+    from ..zoo import DEFAULT_MODEL
     from .checkpoint import read_record, resolve, shipped_names
 
     rows = []
@@ -12,6 +13,8 @@ def checkpoint_rows() -> list[dict]:
         rows.append(
             {
                 "name": name,
+                "default": name == DEFAULT_MODEL,
+                "family": record.get("family"),
                 "scale": record.get("scale"),
                 "macs_per_pixel": round(record.get("macs_per_pixel") or 0),
                 "params": record.get("params"),

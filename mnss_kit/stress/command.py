@@ -11,7 +11,9 @@ HELP = "stress scenarios (fast pan, cut, disocclusion, thin geometry, particles,
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from ..eval.command import _positive_int
 
-    parser.add_argument("--models", nargs="+", default=["mnss_x2"], metavar="MODEL",
+    from ..zoo import DEFAULT_MODEL
+
+    parser.add_argument("--models", nargs="+", default=[DEFAULT_MODEL], metavar="MODEL",
                         help="checkpoints or shipped names to test against bicubic and TAAU (default: %(default)s)")
     parser.add_argument("--out", type=Path, default=Path("bench/results/stress"),
                         help="directory for stress.json, stress.md, plots/ and crops/ (default: %(default)s)")

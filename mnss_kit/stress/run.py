@@ -14,6 +14,7 @@ from pathlib import Path
 from ..errors import UserError
 from ..fileio import portable_path
 from ..eval.summary import RECOVERY_TOLERANCE_DB, frames_to_recover
+from ..zoo import DEFAULT_MODEL
 from .scenarios import DATA_CONFIG, NOT_COVERED, SCENARIOS, scenario
 
 FORMAT, VERSION = "mnss-kit-stress", 1
@@ -23,7 +24,7 @@ METRIC_KEYS = ("psnr", "ssim", "if_ssim", "temporal_error", "disocclusion_psnr",
 
 @dataclass
 class StressRequest:
-    models: list[str] = field(default_factory=lambda: ["mnss_x2"])  # checkpoint paths or shipped names
+    models: list[str] = field(default_factory=lambda: [DEFAULT_MODEL])  # checkpoint paths or shipped names
     work: Path = Path("bench/results/work")  # the rendered scenarios are kept here and reused
     data: Path | None = None  # already rendered scenario sequences (default: render DATA_CONFIG into work)
     max_frames: int | None = None

@@ -2,8 +2,16 @@
 
 ``mnss_kit.model.checkpoint.load("<name>")`` and ``mnss-kit models`` find them here.
 
-``mnss_x2.pt``: ``mnss_kit/configs/models/mnss_x2.yaml`` trained by ``mnss-kit train mnss_x2`` on
-``mnss-kit render train_x2`` (the record holds the data fingerprint and training summary).
+``ntaau_x2.pt`` (the default, :data:`DEFAULT_MODEL`) and ``ntaau_x2_fast.pt``: the configs of the
+same names, small nets that steer the toolkit's TAAU, trained by ``mnss-kit train ntaau_x2`` on
+``train_x2`` rendered with the MNSS jitter, centre (no jitter) and Halton (README, *A model that
+steers TAAU*; docs/results.md).  ``mnss_x2.pt``: ``mnss_kit/configs/models/mnss_x2.yaml`` trained
+by ``mnss-kit train mnss_x2`` on ``mnss-kit render train_x2`` (the record holds the data
+fingerprint and training summary), the paper's design.
 ``fusesr_x2_hybrid.pt`` and ``fusesr_x4_l.pt``: the configs of the same names, trained on
 ``train_x2`` and ``train_x4`` (README, *Reproducing the shipped models*; docs/fusesr_shipped.md).
 """
+
+# The model the demo, the stress suite and the docs use when none is named: at or above the
+# toolkit's TAAU on mean PSNR in every input variant of the held-out set (docs/results.md).
+DEFAULT_MODEL = "ntaau_x2"

@@ -13,7 +13,7 @@ def test_shipped_model_accumulates_on_a_static_camera_without_flicker(static_seq
     frame-to-frame change (temporal error) and raise IF-SSIM, not add flicker of its own.
 
     This pattern is not like the training frames (TAAU stays ahead here: IF-SSIM 0.9951 against
-    the model's 0.9942 when this was written); the rendered static sequence of docs/results.md
+    the model's 0.9942 when this was written); the rendered static sequence of docs/mnss_x2_results.md
     is where the margins are measured.
     """
     model, _ = checkpoint.load("mnss_x2")

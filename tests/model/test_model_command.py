@@ -28,3 +28,10 @@ def test_lists_a_shipped_checkpoint(tmp_path, monkeypatch, capsys):
     assert cli.main(["models", "--configs", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["configs"]
     assert {r["name"] for r in rows} == set(config_names()) and all(r["macs_per_pixel"] > 0 for r in rows)
+
+
+def test_the_default_model_is_shipped_and_marked_as_such():
+    from mnss_kit.model.listing import checkpoint_rows
+    from mnss_kit.zoo import DEFAULT_MODEL
+
+    assert [row["name"] for row in checkpoint_rows() if row["default"]] == [DEFAULT_MODEL]
