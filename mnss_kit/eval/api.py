@@ -34,7 +34,7 @@ def load_model(name_or_path: str, data_dir: str):
 
     from ..dataset import format as fmt
     from ..errors import UserError
-    from ..model.checkpoint import load
+    from ..model.checkpoint import load, trained_patterns
     from ..model.macs import count_macs
 
     model, record = load(name_or_path)
@@ -43,7 +43,8 @@ def load_model(name_or_path: str, data_dir: str):
     if meta.scale != scale:
         raise UserError(f"{data_dir}: data is x{meta.scale} but the model is x{scale}")
     pattern = record.get("jitter_pattern")
-    if pattern and pattern != meta.jitter_pattern:
+    trained = trained_patterns(record)
+    if trained and meta.jitter_pattern not in trained:
         logging.getLogger(__name__).warning(
             "model trained with the '%s' jitter pattern, data uses '%s'", pattern, meta.jitter_pattern)
     macs = record.get("macs") or count_macs(model).to_dict()

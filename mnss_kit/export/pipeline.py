@@ -75,7 +75,7 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
     state = {k: v.detach().cpu().numpy() for k, v in model.state_dict().items()}
     plan = family_of(model).gpu_plan(model.config, state, lr_size, npu_io, request.profile)
     _check_boundary_sizes(tflite, plan)
-    pattern = record.get("jitter_pattern") or "mnss"
+    pattern = checkpoint.bundle_pattern(record)
     inputs = [r["name"] for r in plan["resources"] if r["role"] == "input"]
     frames, golden_source = golden_input_frames(request, lr_size, model.scale, pattern, inputs)
     log.info("running %d golden frames at %dx%d", len(frames), *hr_size)

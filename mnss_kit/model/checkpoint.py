@@ -49,6 +49,19 @@ def code_version() -> str:
     return f"{__version__}+{tag}" if described.returncode == 0 and tag else __version__
 
 
+def trained_patterns(record: dict) -> list[str]:
+    """The jitter patterns a checkpoint was trained on: its record's ``jitter_pattern`` holds one
+    name, or several joined by commas when the training sets used several (``train.loop``)."""
+    return [p for p in str(record.get("jitter_pattern") or "").split(",") if p]
+
+
+def bundle_pattern(record: dict) -> str:
+    """The jitter pattern a bundle of this checkpoint asks the engine for: the toolkit's MNSS
+    pattern when it was trained on it (or the record names none), else the first it was trained on."""
+    patterns = trained_patterns(record)
+    return "mnss" if not patterns or "mnss" in patterns else patterns[0]
+
+
 def make_record(model: nn.Module, record: dict | None = None) -> dict:
     """The full record for ``model``: the caller's ``jitter_pattern``, ``data_fingerprint`` and
     ``training`` (others in ``record`` are kept too) plus everything derived from the model."""

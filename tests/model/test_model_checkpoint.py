@@ -119,3 +119,13 @@ def test_shipped_model_nets_are_alive(tmp_path):
     for name, seen in fired.items():
         assert seen.float().mean() >= 0.25, f"{name}: only {seen.float().mean():.0%} of the units ever fire"
     assert min(changed.values()) > 0.01, changed
+
+
+def test_a_checkpoint_trained_on_several_jitter_patterns_names_each_and_bundles_one():
+    several = {"jitter_pattern": "center,halton,mnss"}
+    assert checkpoint.trained_patterns(several) == ["center", "halton", "mnss"]
+    assert checkpoint.bundle_pattern(several) == "mnss"
+    assert checkpoint.bundle_pattern({"jitter_pattern": "center,halton"}) == "center"
+    assert checkpoint.trained_patterns({}) == [] and checkpoint.bundle_pattern({}) == "mnss"
+    record, _ = checkpoint.read_record("ntaau_x2")  # the shipped default trains on three patterns
+    assert set(checkpoint.trained_patterns(record)) == {"center", "halton", "mnss"}
