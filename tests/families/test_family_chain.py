@@ -62,7 +62,7 @@ CASES = {
     "ntaau": Case("ntaau", {"family": "ntaau", "scale": 2, "width": 8, "layers": 2},
                   (f"frames={LR_FRAMES}", "hr_samples=1", "lr_size=[48,24]"),
                   {"taau_gather": "gpu", "steer": "npu", "taau_accumulate": "gpu"}, ("color", "motion"),
-                  float_gpu=True, recurrent=True),
+                  float_gpu=True, recurrent=True, shipped="ntaau_x2"),  # the default model
 }
 
 
