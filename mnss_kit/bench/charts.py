@@ -58,7 +58,9 @@ def _scatter(records, stem, xlabel, key, x_of, path: Path, suffix: str) -> Path:
     models = [r for r in records if r["precision"] != "baseline" and x_of(r) is not None]
     for r in models:
         ax.scatter(x_of(r), r[key], marker=MARKERS[r["precision"]], s=40)
-        ax.annotate(f"{r['name']} {r['precision']}", (x_of(r), r[key]), fontsize=7, xytext=(4, 3), textcoords="offset points")
+        below = r["precision"] == "int8"  # int8 labels under the point: a model's two points often nearly coincide
+        ax.annotate(f"{r['name']} {r['precision']}", (x_of(r), r[key]), fontsize=7, xytext=(4, -9 if below else 3),
+                    textcoords="offset points")
     front = [models[i] for i in pareto_front([(x_of(r), r[key]) for r in models])]
     if front:
         ax.plot([x_of(r) for r in front], [r[key] for r in front], "k--", lw=1)
