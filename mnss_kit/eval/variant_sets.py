@@ -23,7 +23,8 @@ VARIANTS = {
 def variant_set(name: str, config: str, work: Path, frames: int, base: Path | None = None, progress: bool = False) -> Path:
     """The render config ``config`` in variant ``name``, its first ``frames`` frames per sequence,
     under ``work/<config>/``.  ``base``: the set already rendered with the MNSS jitter (default:
-    render it too).  Renders resume; a rewritten variant is written atomically."""
+    render it too).  Renders resume; a rewritten variant is written atomically, and again when
+    its source has since gained sequences or frames."""
     from ..dataset.variants import write_variant_dataset
     from ..render.config import load_render_config
     from ..render.writer import render_dataset
@@ -36,6 +37,12 @@ def variant_set(name: str, config: str, work: Path, frames: int, base: Path | No
     if not applied:
         return source
     out = root / name
-    if not out.is_dir():
-        write_variant_dataset(source, out, applied)
+    if not out.is_dir() or _contents(out) != _contents(source):  # a source that gained sequences or frames
+        write_variant_dataset(source, out, applied, overwrite=True)
     return out
+
+
+def _contents(data: Path) -> list[tuple[str, int]]:
+    from ..dataset import format as fmt
+
+    return [(seq.name, fmt.read_meta(seq).frame_count) for seq in fmt.find_sequences(data)]
