@@ -78,8 +78,9 @@ def split_of(prop_id: str) -> str:
 
 
 @lru_cache(maxsize=4)
-def _catalog(path: Path) -> tuple[dict[str, list[Prop]], dict[str, list[str]]]:
-    """Props per split and each prop's texture files, of a catalogue."""
+def _catalog(path: Path) -> tuple[dict[str, list[Prop]], dict[str, list[tuple[str, str]]]]:
+    """Props per split, and each prop's texture files as ``(name in the zip, SHA-256)`` sorted by
+    name, of a catalogue."""
     try:
         with zipfile.ZipFile(path) as archive:
             infos = {i.filename: i for i in archive.infolist()}
@@ -91,13 +92,13 @@ def _catalog(path: Path) -> tuple[dict[str, list[Prop]], dict[str, list[str]]]:
                 if info is None or info.file_size > MAX_OBJ_BYTES or max(prop.size) > MAX_SIZE_M:
                     continue
                 props.append(prop)
-                textures[prop.id] = [hashlib.sha256(archive.read(n)).hexdigest() for n in infos
+                textures[prop.id] = [(n, hashlib.sha256(archive.read(n)).hexdigest()) for n in sorted(infos)
                                      if n.startswith(prop.folder) and n.lower().endswith(IMAGE_SUFFIXES)]
     except (zipfile.BadZipFile, KeyError, ValueError, OSError) as error:
         raise UserError(f"furniture catalogue {path}: unreadable ({error})") from None
     by_split = {s: [p for p in props if split_of(p.id) == s] for s in SPLITS}
-    trained = {h for p in by_split["train"] for h in textures[p.id]}
-    by_split["unseen"] = [p for p in by_split["unseen"] if not trained.intersection(textures[p.id])]
+    trained = {h for p in by_split["train"] for _, h in textures[p.id]}
+    by_split["unseen"] = [p for p in by_split["unseen"] if not trained.intersection(h for _, h in textures[p.id])]
     return by_split, textures
 
 
@@ -117,24 +118,23 @@ def props(split: str) -> list[Prop]:
 
 def texture_hashes(prop: Prop) -> list[str]:
     """SHA-256 of each texture file in the prop's folder."""
-    return list(_catalog(catalog_path())[1][prop.id])
+    return [digest for _, digest in _catalog(catalog_path())[1][prop.id]]
 
 
 def surface_textures(split: str, min_size: int = 256) -> list[np.ndarray]:
-    """The split's texture images at least ``min_size`` pixels on each side, (H, W, 3|4) uint8 sRGB,
+    """The split's texture images at least ``min_size`` pixels on each side, (H, W, 3) uint8 sRGB,
     each once: photographs of wood, stone, fabric and metal for floors and walls."""
     from .importers.common import decode_image
 
     path, seen, images = catalog_path(), set(), []
+    textures = _catalog(path)[1]
     with zipfile.ZipFile(path) as archive:
         for prop in props(split):
-            for name in sorted(n for n in archive.namelist() if n.startswith(prop.folder) and n.lower().endswith(IMAGE_SUFFIXES)):
-                data = archive.read(name)
-                digest = hashlib.sha256(data).hexdigest()
+            for name, digest in textures[prop.id]:
                 if digest in seen:
                     continue
                 seen.add(digest)
-                image = decode_image(data, f"{path}:{name}")
+                image = decode_image(archive.read(name), f"{path}:{name}")
                 if min(image.shape[:2]) >= min_size:
                     images.append(image[..., :3])
     return images
