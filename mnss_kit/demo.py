@@ -17,9 +17,9 @@ import logging
 import time
 from pathlib import Path
 
-HELP = "run the whole pipeline on a tiny built-in scene set (render, train, eval, quantize, export, emulate) and write a report"
-
 from .zoo import DEFAULT_MODEL
+
+HELP = "run the whole pipeline on a tiny built-in scene set (render, train, eval, quantize, export, emulate) and write a report"
 
 log = logging.getLogger(__name__)
 

@@ -28,6 +28,7 @@ sys.path.insert(0, str(REPO))
 from mnss_kit.bench.run import model_label  # noqa: E402
 from mnss_kit.eval.variant_sets import VARIANTS, variant_set  # noqa: E402
 from mnss_kit.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, read_json  # noqa: E402
+from mnss_kit.zoo import DEFAULT_MODEL  # noqa: E402
 
 RESULTS = REPO / "bench" / "results" / "heldout_results.json"
 WORK = REPO / "bench" / "results" / "work" / "variants"
@@ -168,7 +169,7 @@ def write_doc(doc: dict) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--models", nargs="+", default=["ntaau_x2", "ntaau_x2_fast", "mnss_x2"],
+    parser.add_argument("--models", nargs="+", default=[DEFAULT_MODEL, "ntaau_x2_fast", "mnss_x2"],
                         help="checkpoints or shipped names; the first is the candidate default, the second the fast one")
     parser.add_argument("--doc-only", action="store_true")
     args = parser.parse_args()

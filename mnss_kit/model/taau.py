@@ -17,8 +17,9 @@ samples as they come.  ``spatial`` is the jitter-aware bicubic frame with a smal
 
 A :class:`Steer` scales ``W`` and ``w`` per pixel, widens or narrows the clamp box and adds a
 bounded correction to the displayed colour only: the history keeps the uncorrected blend, so a
-correction cannot feed back and build up over frames on a static camera; :data:`NEUTRAL` (all factors 1, no widening, no correction) is TAAU itself,
-so a steering net whose outputs are zero starts as exactly this baseline.
+correction cannot feed back and build up over frames on a static camera.  :data:`NEUTRAL` (all
+factors 1, no widening, no correction) is TAAU itself, so a steering net whose outputs are zero
+starts as exactly this baseline.
 
 Reprojection is bilinear.  Each bilinear fetch blurs, and under slow sub-pixel motion the blur
 compounds frame after frame (Karis fetches history with a Catmull-Rom filter for this reason),
@@ -219,6 +220,5 @@ def blend(inputs: TAAUInputs, params: TAAUParams, steer: Steer = NEUTRAL) -> tup
     p = params.prior_weight
     blended = (weight * history + sample_weight * inputs.samples + p * inputs.spatial) / (weight + sample_weight + p)
     output = ycocg_to_rgb(blended + steer.correction).clamp(0.0, 1.0)
-    history = ycocg_to_rgb(blended).clamp(0.0, 1.0)
-    state = {"history": history, "weight": (weight + sample_weight).clamp(max=params.max_weight)}
+    state = {"history": ycocg_to_rgb(blended).clamp(0.0, 1.0), "weight": (weight + sample_weight).clamp(max=params.max_weight)}
     return output, state

@@ -173,5 +173,6 @@ def blend(samples, sample_weight, spatial, lo, hi, history, history_weight, prio
     current = sample_weight * steer.sample_gain
     mixed = (weight * clamped + current * samples + prior_weight * spatial) / (weight + current + prior_weight)
     output = np.clip(ycocg_to_rgb(mixed + steer.correction), 0.0, 1.0)
-    history = np.clip(ycocg_to_rgb(mixed), 0.0, 1.0)
-    return output.astype(np.float32), history.astype(np.float32), np.minimum(weight + current, max_weight).astype(np.float32)
+    next_history = np.clip(ycocg_to_rgb(mixed), 0.0, 1.0)
+    return (output.astype(np.float32), next_history.astype(np.float32),
+            np.minimum(weight + current, max_weight).astype(np.float32))
