@@ -141,6 +141,30 @@ def _convert(tp: Any, value: Any, where: str, source: str) -> Any:
     raise TypeError(f"unsupported config type {tp!r} at {label}")
 
 
+def read_config_with_base(path: Path, kind: str, _seen: tuple[Path, ...] = ()) -> dict:
+    """Read ``path`` and, when it names a ``base:`` config (a name under ``configs/<kind>/`` or a
+    path relative to this file), lay it over that config: mappings merge key by key, anything
+    else replaces.  A variant then states only how it differs, so the two cannot drift apart."""
+    data = read_yaml(path)
+    base = data.pop("base", None)
+    if base is None:
+        return data
+    if not isinstance(base, str):
+        raise UserError(f"{path}: 'base' must be a config name or path, got {type(base).__name__}")
+    relative = path.parent / base
+    base_path = relative if relative.is_file() else resolve_config_path(base, kind)
+    if base_path.resolve() in _seen + (path.resolve(),):
+        raise UserError(f"{path}: 'base: {base}' leads back to a config that is already a base (a loop)")
+    return _merged(read_config_with_base(base_path, kind, _seen + (path.resolve(),)), data)
+
+
+def _merged(base: dict, top: dict) -> dict:
+    out = dict(base)
+    for key, value in top.items():
+        out[key] = _merged(out[key], value) if isinstance(value, dict) and isinstance(out.get(key), dict) else value
+    return out
+
+
 def apply_overrides(data: dict, overrides: list[str] | None) -> dict:
     """Apply ``key.sub=value`` overrides; values are parsed as YAML scalars (typed, never executed)."""
     data = dict(data)

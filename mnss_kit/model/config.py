@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..config import CONFIG_DIR, apply_overrides, from_dict, read_yaml, resolve_config_path
+from ..config import CONFIG_DIR, apply_overrides, from_dict, read_config_with_base, resolve_config_path
 from ..errors import UserError
 
 SCHEMA_VERSION = 1
@@ -40,7 +40,7 @@ def load_model_config(name_or_path: str | Path, overrides: list[str] | None = No
     ``overrides`` are ``--set`` items such as ``model.recon_width=64``.
     """
     path = resolve_config_path(str(name_or_path), "models")
-    data = apply_overrides(read_yaml(path), overrides)
+    data = apply_overrides(read_config_with_base(path, "models"), overrides)
     unknown = sorted(set(data) - set(TOP_LEVEL_KEYS))
     if unknown:
         raise UserError(f"{path}: unknown top-level key '{unknown[0]}' (allowed: {', '.join(TOP_LEVEL_KEYS)})")

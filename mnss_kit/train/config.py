@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..model.config import model_config_from_dict
-from ..config import apply_overrides, from_dict, read_yaml, resolve_config_path
+from ..config import apply_overrides, from_dict, read_config_with_base, resolve_config_path
 from ..errors import UserError
 
 SCHEMA_VERSION = 1
@@ -138,7 +138,7 @@ class ExperimentConfig:
 def load_experiment(name_or_path: str | Path, overrides: list[str] | None = None) -> tuple[ExperimentConfig, Path]:
     """Read an experiment YAML (a path or a name under ``mnss_kit/configs/models/``) with ``--set`` overrides."""
     path = resolve_config_path(str(name_or_path), "models")
-    data = apply_overrides(read_yaml(path), overrides)
+    data = apply_overrides(read_config_with_base(path, "models"), overrides)
     if "model" not in data:
         raise UserError(f"{path}: missing required key 'model'")
     experiment = from_dict(ExperimentConfig, data, source=str(path))

@@ -54,3 +54,29 @@ def test_overrides(tmp_path):
 def test_unknown_name():
     with pytest.raises(UserError, match="mnss_x2"):
         load_model_config("no_such_config")
+
+
+def test_a_variant_states_only_how_it_differs_from_its_base(tmp_path):
+    write(tmp_path, "schema: 1\nmodel: {family: ntaau, width: 16, layers: 3}\ntrain: {lr: 0.01, seed: 3}\n")
+    variant = tmp_path / "v.yaml"
+    variant.write_text("base: m.yaml\nmodel: {width: 8}\ntrain: {seed: 4}\n")
+    from mnss_kit.train.config import load_experiment
+    experiment, _ = load_experiment(variant)
+    assert (experiment.model.width, experiment.model.layers) == (8, 3)
+    assert (experiment.train.lr, experiment.train.seed) == (0.01, 4)
+    assert load_model_config(variant, ["model.layers=2"]).layers == 2
+
+
+def test_shipped_fast_variant_trains_like_the_default():
+    from mnss_kit.train.config import load_experiment
+    default, _ = load_experiment("ntaau_x2")
+    fast, _ = load_experiment("ntaau_x2_fast")
+    assert fast.train == default.train and fast.data == default.data
+    assert fast.model.width < default.model.width
+
+
+@pytest.mark.parametrize("text, message", [("base: [1]\n", "base"), ("base: m.yaml\n", "loop"), ("base: nowhere\n", "nowhere")])
+def test_bad_bases_are_user_errors(tmp_path, text, message):
+    path = write(tmp_path, text)
+    with pytest.raises(UserError, match=message):
+        load_model_config(path)
