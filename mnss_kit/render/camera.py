@@ -182,11 +182,16 @@ class CameraPath:
         values = np.array([v for _, v in shot])
         self.shots.append((float(times[0]), times, values))
 
-    def state(self, t: float) -> CameraState:
-        start, times, values = self.shots[0]
+    def _shot(self, t: float) -> tuple[float, np.ndarray, np.ndarray]:
+        """The shot playing at time ``t`` (the first one before it starts)."""
+        current = self.shots[0]
         for shot in self.shots:
             if t >= shot[0]:
-                start, times, values = shot
+                current = shot
+        return current
+
+    def state(self, t: float) -> CameraState:
+        _, times, values = self._shot(t)
         v = _hermite(times, values, t)
         return CameraState(v[:3], float(v[3]), float(v[4]), float(v[5]), float(v[6]), max(float(v[7]), 0.0))
 
@@ -197,6 +202,14 @@ class CameraPath:
     def breaks_history(self, t_prev: float, t: float, aspect: float) -> bool:
         """The frame at ``t`` is a ``reset``: a cut, or a jump out of the view of the frame at ``t_prev``."""
         return self.is_cut(t_prev, t) or view_jumped(self.state(t_prev), self.state(t), aspect)
+
+    def held(self, t: float) -> "CameraPath":
+        """This path frozen at time ``t``: a still camera over moving content (no cuts, no jumps)."""
+        still = object.__new__(CameraPath)
+        _, times, values = self._shot(t)
+        still.shots = [(0.0, np.array([0.0]), _hermite(times, values, t)[None, :])]
+        still.cut_times = []
+        return still
 
     @classmethod
     def from_config(cls, cfg: CameraPathConfig, source: str = "camera path") -> "CameraPath":

@@ -44,7 +44,7 @@ class SequenceConfig:
     scale: int = 2
     jitter: str = "mnss"
     hr_samples: int = 16
-    camera: str = "auto"
+    camera: str = "auto"  # "auto": the scene's own path; "still": that path held at start_time; or a camera-path YAML
     particles: bool = False
     animated_light: bool = False
     exposure: float = 1.0
@@ -124,7 +124,7 @@ def load_render_config(name_or_path: str, overrides: list[str] | None = None) ->
         if not seq.is_builtin and Path(seq.scene).suffix.lower() not in SCENE_SUFFIXES:
             raise UserError(f"{source}: sequence '{seq.name}': scene '{seq.scene}' is neither built-in "
                             f"({', '.join(BUILTIN_SCENES)}) nor a {'/'.join(SCENE_SUFFIXES)} file")
-        if not seq.is_builtin and seq.camera == "auto":
+        if not seq.is_builtin and seq.camera in ("auto", "still"):
             raise UserError(f"{source}: sequence '{seq.name}': an imported scene needs a camera-path YAML (camera: PATH)")
     cfg.source_dir = str(path.resolve().parent)
     return cfg

@@ -52,6 +52,26 @@ def test_missing_camera_file_is_a_user_error(tmp_path):
         build_scene(cfg.sequences[0], cfg)
 
 
+def test_still_camera_stands_where_the_scenes_own_camera_starts(tmp_path):
+    from mnss_kit.render.scenes import build_scene
+
+    text = "sequences:\n  - {name: a, scene: town, seed: 3, frames: 30, start_time: 0.5, camera: CAM}\n"
+    moving, still = (load_render_config(write(tmp_path, text.replace("CAM", c))) for c in ("auto", "still"))
+    path = build_scene(moving.sequences[0], moving).camera
+    held = build_scene(still.sequences[0], still).camera
+    first = path.state(0.5)
+    assert path.state(1.4).position.tolist() != first.position.tolist()  # the auto camera moves
+    for t in (0.0, 0.5, 1.4, 9.0):
+        state = held.state(t)
+        assert state.position.tolist() == first.position.tolist() and (state.yaw, state.pitch) == (first.yaw, first.pitch)
+    assert not held.breaks_history(0.5, 1.4, 16 / 9)
+
+
+def test_still_camera_needs_a_built_in_scene(tmp_path):
+    with pytest.raises(UserError, match="needs a camera-path YAML"):
+        load_render_config(write(tmp_path, "sequences:\n  - {name: a, scene: level.glb, camera: still}\n"))
+
+
 @pytest.mark.parametrize("text", ["1", "a/b", "2/2", "-1/3", "1/0"])
 def test_bad_shards(text):
     with pytest.raises(UserError, match="--shard"):

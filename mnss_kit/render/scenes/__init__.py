@@ -3,6 +3,8 @@ installed furniture catalogue in a training and an unseen variant) and the scene
 
 from __future__ import annotations
 
+import dataclasses
+
 from ...errors import UserError
 from ..camera import CameraPath
 from ..config import RenderConfig, SequenceConfig, resolve_asset
@@ -15,10 +17,13 @@ BUILDERS = {"arena": arena.build, "town": town.build, "flight": flight.build, "f
 
 def build_scene(seq: SequenceConfig, cfg: RenderConfig) -> Scene:
     """The scene of one sequence: a built-in one (seeded) or an imported file with its camera path."""
-    camera = None if seq.camera == "auto" else CameraPath.load(resolve_asset(seq.camera, cfg, "camera path"))
+    camera = None if seq.camera in ("auto", "still") else CameraPath.load(resolve_asset(seq.camera, cfg, "camera path"))
     duration = seq.frames / seq.fps
     if seq.is_builtin:
-        return BUILDERS[seq.scene](seq.seed, duration, seq.start_time, camera, seq.particles, seq.animated_light)
+        scene = BUILDERS[seq.scene](seq.seed, duration, seq.start_time, camera, seq.particles, seq.animated_light)
+        if seq.camera == "still":  # the scene's own camera held at the first frame: stands where it would stand
+            scene = dataclasses.replace(scene, camera=scene.camera.held(seq.start_time))
+        return scene
     from ..importers import load_meshes  # glTF/OBJ reader, imported only when needed
 
     meshes = load_meshes(resolve_asset(seq.scene, cfg, "scene file"))
