@@ -31,6 +31,7 @@ view axis at infinity for ``yaw``/``pitch`` keyframes.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -205,7 +206,7 @@ class CameraPath:
 
     def held(self, t: float) -> "CameraPath":
         """This path frozen at time ``t``: a still camera over moving content (no cuts, no jumps)."""
-        still = object.__new__(CameraPath)
+        still = copy.copy(self)  # a shallow copy: only the shots and cuts differ
         _, times, values = self._shot(t)
         still.shots = [(0.0, np.array([0.0]), _hermite(times, values, t)[None, :])]
         still.cut_times = []

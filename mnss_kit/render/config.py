@@ -30,6 +30,7 @@ from ..ops import jitter as jitter_ops
 
 BUILTIN_SCENES = ("arena", "town", "flight", "factory", "rooms", "rooms_unseen")
 SCENE_SUFFIXES = (".gltf", ".glb", ".obj")
+SCENE_CAMERAS = ("auto", "still")  # a built-in scene's own path, moving or held; an imported scene has none
 
 
 @dataclass
@@ -124,7 +125,7 @@ def load_render_config(name_or_path: str, overrides: list[str] | None = None) ->
         if not seq.is_builtin and Path(seq.scene).suffix.lower() not in SCENE_SUFFIXES:
             raise UserError(f"{source}: sequence '{seq.name}': scene '{seq.scene}' is neither built-in "
                             f"({', '.join(BUILTIN_SCENES)}) nor a {'/'.join(SCENE_SUFFIXES)} file")
-        if not seq.is_builtin and seq.camera in ("auto", "still"):
+        if not seq.is_builtin and seq.camera in SCENE_CAMERAS:
             raise UserError(f"{source}: sequence '{seq.name}': an imported scene needs a camera-path YAML (camera: PATH)")
     cfg.source_dir = str(path.resolve().parent)
     return cfg

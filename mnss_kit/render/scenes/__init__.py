@@ -7,7 +7,7 @@ import dataclasses
 
 from ...errors import UserError
 from ..camera import CameraPath
-from ..config import RenderConfig, SequenceConfig, resolve_asset
+from ..config import SCENE_CAMERAS, RenderConfig, SequenceConfig, resolve_asset
 from ..scene import Scene, Sun, static_instances
 from . import arena, factory, flight, rooms, town
 
@@ -17,7 +17,7 @@ BUILDERS = {"arena": arena.build, "town": town.build, "flight": flight.build, "f
 
 def build_scene(seq: SequenceConfig, cfg: RenderConfig) -> Scene:
     """The scene of one sequence: a built-in one (seeded) or an imported file with its camera path."""
-    camera = None if seq.camera in ("auto", "still") else CameraPath.load(resolve_asset(seq.camera, cfg, "camera path"))
+    camera = None if seq.camera in SCENE_CAMERAS else CameraPath.load(resolve_asset(seq.camera, cfg, "camera path"))
     duration = seq.frames / seq.fps
     if seq.is_builtin:
         scene = BUILDERS[seq.scene](seq.seed, duration, seq.start_time, camera, seq.particles, seq.animated_light)
