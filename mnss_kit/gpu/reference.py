@@ -164,7 +164,8 @@ class ReferencePasses:
         return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]
 
     def taau_accumulate(self, npu_output, color, reprojected, jitter, scale: int, q_scale: float, q_zero_point: int,
-                        correction_bound: float, sample_sigma: float, prior_weight: float, max_weight: float):
+                        correction_bound: float, history_gain_min: float, sample_sigma: float, prior_weight: float,
+                        max_weight: float):
         """taau_accumulate_pass.  npu_output (1,H,W,6) int8 raw steering, color (h,w,3), reprojected
         (H,W,4) -> (history (H,W,4) fp16 values: the uncorrected blend and its weight, display
         (H,W,3) uint8 codes of the corrected output)."""
@@ -172,5 +173,5 @@ class ReferencePasses:
         terms = taau.current_terms(to_half(color), as_jitter(jitter), scale, sample_sigma)
         r = to_half(reprojected)
         output, history, weight = taau.blend(*terms, r[..., :3], r[..., 3:], prior_weight, max_weight,
-                                             taau.steer_from_raw(raw, correction_bound))
+                                             taau.steer_from_raw(raw, correction_bound, history_gain_min))
         return to_half(np.concatenate([history, weight], axis=-1)), encode_unorm8(output)

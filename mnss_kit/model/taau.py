@@ -70,10 +70,12 @@ class Steer:
 NEUTRAL = Steer()
 
 
-def steer_from_raw(raw: torch.Tensor, correction_bound: float) -> Steer:
+def steer_from_raw(raw: torch.Tensor, correction_bound: float, history_gain_min: float = 0.0) -> Steer:
     """A steering net's raw output (N, 6, H, W) mapped to its ranges (``ops.taau.steer_from_raw``):
-    gains 2 sigmoid in (0, 2), box widening tanh / 2, correction ``correction_bound`` tanh."""
-    return Steer(history_gain=2.0 * torch.sigmoid(raw[:, 0:1]), sample_gain=2.0 * torch.sigmoid(raw[:, 1:2]),
+    sample gain 2 sigmoid in (0, 2), history gain the same but at least ``history_gain_min``, box
+    widening tanh / 2, correction ``correction_bound`` tanh."""
+    history_gain = (2.0 * torch.sigmoid(raw[:, 0:1])).clamp(min=history_gain_min)
+    return Steer(history_gain=history_gain, sample_gain=2.0 * torch.sigmoid(raw[:, 1:2]),
                  box_widen=0.5 * torch.tanh(raw[:, 2:3]), correction=correction_bound * torch.tanh(raw[:, 3:6]))
 
 

@@ -154,11 +154,14 @@ class Steer:
     correction: np.ndarray | float = 0.0
 
 
-def steer_from_raw(raw: np.ndarray, correction_bound: float) -> Steer:
-    """The ``ntaau`` net's raw output (H, W, 6) mapped to its ranges."""
+def steer_from_raw(raw: np.ndarray, correction_bound: float, history_gain_min: float = 0.0) -> Steer:
+    """The ``ntaau`` net's raw output (H, W, 6) mapped to its ranges: gains 2 sigmoid in (0, 2),
+    the history gain at least ``history_gain_min``, box widening tanh / 2, correction
+    ``correction_bound`` tanh."""
     raw = np.asarray(raw, np.float32)
     sigmoid = lambda x: 1.0 / (1.0 + np.exp(-x))  # noqa: E731
-    return Steer(history_gain=2.0 * sigmoid(raw[..., 0:1]), sample_gain=2.0 * sigmoid(raw[..., 1:2]),
+    history_gain = np.maximum(2.0 * sigmoid(raw[..., 0:1]), np.float32(history_gain_min))
+    return Steer(history_gain=history_gain, sample_gain=2.0 * sigmoid(raw[..., 1:2]),
                  box_widen=0.5 * np.tanh(raw[..., 2:3]), correction=correction_bound * np.tanh(raw[..., 3:6]))
 
 

@@ -52,6 +52,27 @@ def test_the_correction_is_bounded():
     torch.testing.assert_close(shift, torch.full_like(shift, 0.05), atol=1e-5, rtol=0)
 
 
+def test_the_history_gain_floor_keeps_what_taau_trusts():
+    """With ``history_gain_min: 1`` a net that asks for less history than TAAU gets TAAU's blend;
+    one that asks for more gets it; without the floor it gets less."""
+    g = torch.Generator().manual_seed(2)
+    colour = 0.3 + 0.4 * torch.rand(1, 3, 6, 8, generator=g)
+    params = taau.TAAUParams()
+    first = taau.taau_inputs(colour, torch.zeros(1, 2), torch.zeros(1, 2, 6, 8), torch.zeros(1), None, 2, params)
+    _, state = taau.blend(first, params)
+    moved = 0.3 + 0.4 * torch.rand(1, 3, 6, 8, generator=g)
+    inputs = taau.taau_inputs(moved, torch.full((1, 2), 0.25), torch.zeros(1, 2, 6, 8), torch.zeros(1), state, 2, params)
+    neutral, _ = taau.blend(inputs, params)
+    floored, unfloored = (build_model(NTAAUConfig(history_gain_min=m)) for m in (1.0, 0.0))
+    less, more = torch.zeros(1, 6, 12, 16), torch.zeros(1, 6, 12, 16)
+    less[:, 0], more[:, 0] = -50.0, 2.0
+    torch.testing.assert_close(floored.taau_accumulate(inputs, less)[0], neutral, atol=0, rtol=0)
+    assert (unfloored.taau_accumulate(inputs, less)[0] - neutral).abs().max() > 0.01
+    assert (floored.taau_accumulate(inputs, more)[0] - neutral).abs().max() > 0.01
+    with pytest.raises(ValueError, match="history_gain_min"):
+        NTAAUConfig(history_gain_min=1.5)
+
+
 def test_the_correction_stays_out_of_the_history():
     """The correction changes the displayed frame only: the next history is the blend of the same
     gains and box without it, so a correction cannot build up over frames on a static camera."""

@@ -58,7 +58,7 @@ def test_steered_accumulation_matches_reference(mesa, ref, pattern, scale):
     reprojected = ref.taau_reproject(_history(rng, scale), f["motion"], scale, False, PARAMS.blur_penalty)
     steering = rng.integers(-128, 128, (1, H * scale, W * scale, 6)).astype(np.int8)
     for jitter in pattern_jitters(pattern, scale)[:4]:
-        args = (steering, f["color"], reprojected, jitter, scale, 0.02, 3, 0.1, PARAMS.sample_sigma, PARAMS.prior_weight,
+        args = (steering, f["color"], reprojected, jitter, scale, 0.02, 3, 0.1, 0.75, PARAMS.sample_sigma, PARAMS.prior_weight,
                 PARAMS.max_weight)
         (history, display), (want_history, want_display) = mesa.taau_accumulate(*args), ref.taau_accumulate(*args)
         assert_float_close(history, want_history, TOLERANCE)

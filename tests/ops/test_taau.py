@@ -54,7 +54,7 @@ def test_each_step_matches_the_reference(scale):
 
 def test_a_steered_sequence_matches_the_reference():
     rng = np.random.default_rng(7)
-    scale, h, w, bound = 2, 6, 8, 0.1
+    scale, h, w, bound, gain_min = 2, 6, 8, 0.1, 0.75  # raw ~ N(0, 2): gains on both sides of the floor
     params = torch_taau.TAAUParams()
     state, ref_history, ref_weight = None, None, None
     for t in range(5):
@@ -63,7 +63,7 @@ def test_a_steered_sequence_matches_the_reference():
         raw = rng.normal(0, 2, (h * scale, w * scale, 6)).astype(np.float32)
         inputs = torch_taau.taau_inputs(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.tensor([float(reset)]),
                                         state, scale, params)
-        out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound))
+        out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound, gain_min))
 
         terms = taau.current_terms(colour, jitter, scale, params.sample_sigma)
         if ref_history is None:
@@ -71,7 +71,7 @@ def test_a_steered_sequence_matches_the_reference():
         else:
             history, weight = taau.reprojected_history(ref_history, ref_weight, motion, reset, scale)
         ref_out, ref_history, ref_weight = taau.blend(*terms, history, weight, params.prior_weight, params.max_weight,
-                                                      taau.steer_from_raw(raw, bound))
+                                                      taau.steer_from_raw(raw, bound, gain_min))
         np.testing.assert_allclose(hwc(out), ref_out, atol=1e-4)
         np.testing.assert_allclose(hwc(state["history"]), ref_history, atol=1e-4)
         np.testing.assert_allclose(hwc(state["weight"]), ref_weight, atol=1e-4)

@@ -20,6 +20,9 @@ class NTAAUConfig:
     width: int = 16  # steering net channels at LR
     layers: int = 3  # 3x3 convs, >= 2
     correction_bound: float = 0.1  # |correction| per YCoCg channel; 0: the net only steers the blend
+    # 1: the net may trust the history more than TAAU does but never less; it rejects history only
+    # by narrowing the clamp box, as TAAU does (0: the gain spans (0, 2))
+    history_gain_min: float = 0.0
     alpha: float = 0.1  # TAAU's converged blend factor (model.taau.TAAUParams)
 
     def __post_init__(self):
@@ -29,6 +32,8 @@ class NTAAUConfig:
             raise ValueError("layers and width must be >= 2")
         if not 0.0 <= self.correction_bound <= 0.5:
             raise ValueError(f"correction_bound must be in [0, 0.5], got {self.correction_bound}")
+        if not 0.0 <= self.history_gain_min <= 1.0:
+            raise ValueError(f"history_gain_min must be in [0, 1], got {self.history_gain_min}")
 
     def npu_input_channels(self) -> int:
         """LR colour (3), clamped history (3 s^2), history weight (s^2) and clamp distance (s^2)."""

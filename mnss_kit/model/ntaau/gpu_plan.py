@@ -78,6 +78,7 @@ def schedule(config: NTAAUConfig, lr_size: tuple[int, int], npu: dict, profile: 
               "display": "display"},
              {"u_scale": const(s), "u_jitter": per_frame("offset"), "u_q_scale": const(float(np.float32(out_scale))),
               "u_q_zero_point": const(int(out_zp)), "u_correction_bound": const(config.correction_bound),
+              "u_history_gain_min": const(config.history_gain_min),
               "u_sample_sigma": const(params.sample_sigma), "u_prior_weight": const(params.prior_weight),
               "u_max_weight": const(params.max_weight)}, **a),
     ]

@@ -11,12 +11,14 @@ Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``
                             weight / (1/alpha - 1) and the clamp distance (the HR ones
                             pixel-unshuffled)
     steer            (npu)  3x3 convs at LR, pixel shuffle -> 6 raw values per HR pixel
-    taau_accumulate  (gpu)  history gain 2 sigmoid(a), sample gain 2 sigmoid(b), box widening
-                            tanh(c) / 2, correction bound * tanh(d) (YCoCg, display
-                            only); TAAU's blend with them
+    taau_accumulate  (gpu)  history gain max(2 sigmoid(a), history_gain_min), sample gain
+                            2 sigmoid(b), box widening tanh(c) / 2, correction
+                            bound * tanh(d) (YCoCg, display only); TAAU's blend with them
 
 A fresh net outputs zeros, which is TAAU itself: training starts at the baseline, and the net's
-reach beyond it is bounded (a correction of at most ``correction_bound`` per channel).
+reach beyond it is bounded (a correction of at most ``correction_bound`` per channel).  With
+``history_gain_min: 1`` the net cannot trust a history less than TAAU does: it rejects one only
+by narrowing the clamp box or by weighting this frame's samples more, as TAAU's own clamp does.
 
 State: ``history`` (N,3,H,W) the previous blend before the correction (RGB; the correction
 is for display only, so it cannot build up over frames), ``weight`` (N,1,H,W) its accumulated
@@ -78,12 +80,12 @@ class Accumulate(nn.Module):
 
     placement = "gpu"
 
-    def __init__(self, params: TAAUParams, correction_bound: float):
+    def __init__(self, params: TAAUParams, correction_bound: float, history_gain_min: float):
         super().__init__()
-        self.params, self.correction_bound = params, correction_bound
+        self.params, self.correction_bound, self.history_gain_min = params, correction_bound, history_gain_min
 
     def forward(self, inputs: TAAUInputs, raw):
-        return blend(inputs, self.params, steer_from_raw(raw, self.correction_bound))
+        return blend(inputs, self.params, steer_from_raw(raw, self.correction_bound, self.history_gain_min))
 
 
 class NTAAU(nn.Module):
@@ -96,7 +98,7 @@ class NTAAU(nn.Module):
         self.params = TAAUParams(alpha=config.alpha)
         self.taau_gather = Gather(s, self.params)
         self.steer = SteerNet(s, config.npu_input_channels(), config.width, config.layers)
-        self.taau_accumulate = Accumulate(self.params, config.correction_bound)
+        self.taau_accumulate = Accumulate(self.params, config.correction_bound, config.history_gain_min)
 
     def stages(self) -> list[tuple[str, nn.Module, str]]:
         return [(n, getattr(self, n), getattr(self, n).placement) for n in STAGE_ORDER]

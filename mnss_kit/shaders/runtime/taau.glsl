@@ -90,9 +90,9 @@ struct Steer {
     vec3 correction;
 };
 
-Steer steer_from_raw(float raw[6], float correction_bound) {
+Steer steer_from_raw(float raw[6], float correction_bound, float history_gain_min) {
     Steer s;
-    s.history_gain = 2.0 / (1.0 + exp(-raw[0]));
+    s.history_gain = max(2.0 / (1.0 + exp(-raw[0])), history_gain_min);
     s.sample_gain = 2.0 / (1.0 + exp(-raw[1]));
     s.box_widen = 0.5 * tanh(raw[2]);
     s.correction = correction_bound * vec3(tanh(raw[3]), tanh(raw[4]), tanh(raw[5]));
