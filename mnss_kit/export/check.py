@@ -321,7 +321,19 @@ def check_schedule(manifest: dict) -> list[str]:
         missing = set(declared) - set(step["bind"])
         if missing:
             problems.append(f"{where}: nothing bound to {', '.join(sorted(missing))}")
+        unset = _unset_uniforms(step, shader)
+        if unset:
+            problems.append(f"{where}: no value for {', '.join(unset)} (a bundle from another mnss-kit version: export it again)")
     return problems
+
+
+def _unset_uniforms(step: dict, shader: dict) -> list[str]:
+    """Uniforms the pass takes, in the bundle's shader list or in this toolkit's, that the step sets no value for."""
+    from ..gpu.passes import PASSES
+
+    known = PASSES.get(step["pass"])
+    wanted = set(shader["uniforms"]) | set(known.uniforms if known else ())
+    return sorted(wanted - set(step.get("uniforms", {})))
 
 
 def _binding_problem(binding: dict, target: str, resources: dict, blocks: set[str]) -> str | None:

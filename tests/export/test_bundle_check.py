@@ -170,3 +170,14 @@ def test_schedule_references_are_checked(bundle_copy):
     assert_one_problem_naming(problems, "conv3x3_pass", "weights:missing", "no such weight block")
     assert_one_problem_naming(problems, "conv3x3_pass", "nothing bound to residual")
     assert_one_problem_naming(problems, "unpack_history_pass", "'display' -> 'rectified'", "declared rgba8")
+
+
+def test_a_step_without_a_uniform_its_pass_takes_is_named(bundle_copy):
+    """A bundle written before a pass gained a uniform (or edited by hand) is refused by name,
+    not run with the value missing."""
+    def change(m):
+        step = next(s for s in m["schedule"]["steps"] if s["kind"] == "gpu" and s["pass"] == "conv3x3_pass")
+        step["uniforms"].pop(sorted(step["uniforms"])[0])
+
+    edit_manifest(bundle_copy, change)
+    assert_one_problem_naming(check_bundle(bundle_copy), "conv3x3_pass", "no value for", "export it again")
