@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import UserError
 from .boundary import texture_remaps
 from ..fileio import sha256_file
+from ..gpu.passes import PASSES
 from ..gpu.plan import WEIGHTS_PREFIX
 from .manifest import bundle_files, read_manifest, schema_problems, sha256_bytes
 from .npu_files import NpuModel, nchw_to_nhwc, read_onnx, read_tflite
@@ -329,11 +330,9 @@ def check_schedule(manifest: dict) -> list[str]:
 
 def _unset_uniforms(step: dict, shader: dict) -> list[str]:
     """Uniforms the pass takes, in the bundle's shader list or in this toolkit's, that the step sets no value for."""
-    from ..gpu.passes import PASSES
-
     known = PASSES.get(step["pass"])
     wanted = set(shader["uniforms"]) | set(known.uniforms if known else ())
-    return sorted(wanted - set(step.get("uniforms", {})))
+    return sorted(wanted - set(step["uniforms"]))
 
 
 def _binding_problem(binding: dict, target: str, resources: dict, blocks: set[str]) -> str | None:
