@@ -127,6 +127,12 @@ def _taau_accumulate(p, c: Call):
     return {"history": history, "display": display}
 
 
+def _taau_filter(p, c: Call):
+    display = p.taau_filter(c.read["npu_output"], c.read["history"], c.u("u_q_scale"), c.u("u_q_zero_point"),
+                            c.u("u_correction_bound"), c.u("u_filter_bound"))
+    return {"display": display}
+
+
 # pass name -> (backend, call) -> {image or buffer binding written: array}
 PASS_CALLS: dict[str, Callable[[object, Call], dict]] = {
     "warp_pass": _warp,
@@ -143,6 +149,7 @@ PASS_CALLS: dict[str, Callable[[object, Call], dict]] = {
     "taau_reproject_pass": _taau_reproject,
     "taau_pack_pass": _taau_pack,
     "taau_accumulate_pass": _taau_accumulate,
+    "taau_filter_pass": _taau_filter,
 }
 
 

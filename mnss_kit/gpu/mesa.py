@@ -381,9 +381,22 @@ class MesaPasses:
         history, display = self.empty((hw, hh), "rgba16f"), self.empty((hw, hh), "rgba8")
         res = {"npu_output": self.ctx.buffer(raw), "color": self.texture(color, "rgba16f"),
                "reprojected": self.texture(reprojected, "rgba16f"), "history": history, "display": display}
-        uni = {"u_scale": scale, "u_jitter": _vec2(jitter), "u_q_scale": float(np.float32(q_scale)),
+        uni = {"u_scale": scale, "u_steer_channels": int(npu_output.shape[-1]), "u_jitter": _vec2(jitter), "u_q_scale": float(np.float32(q_scale)),
                "u_q_zero_point": int(q_zero_point), "u_correction_bound": float(correction_bound),
                "u_history_gain_min": float(history_gain_min),
                "u_sample_sigma": float(sample_sigma), "u_prior_weight": float(prior_weight), "u_max_weight": float(max_weight)}
         self.run("taau_accumulate_pass", (hw, hh), res, uni)
         return self.read(history, "rgba16f", 4), self.read(display, "rgba8", 3)
+
+    @_in_own_context
+    def taau_filter(self, npu_output, history, q_scale: float, q_zero_point: int, correction_bound: float,
+                    filter_bound: float):
+        _, hh, hw, _ = npu_output.shape
+        raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
+        raw += b"\0" * (-len(raw) % 4)
+        display = self.empty((hw, hh), "rgba8")
+        res = {"npu_output": self.ctx.buffer(raw), "history": self.texture(history, "rgba16f"), "display": display}
+        uni = {"u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point),
+               "u_correction_bound": float(correction_bound), "u_filter_bound": float(filter_bound)}
+        self.run("taau_filter_pass", (hw, hh), res, uni)
+        return self.read(display, "rgba8", 3)

@@ -166,12 +166,20 @@ class ReferencePasses:
     def taau_accumulate(self, npu_output, color, reprojected, jitter, scale: int, q_scale: float, q_zero_point: int,
                         correction_bound: float, history_gain_min: float, sample_sigma: float, prior_weight: float,
                         max_weight: float):
-        """taau_accumulate_pass.  npu_output (1,H,W,6) int8 raw steering, color (h,w,3), reprojected
-        (H,W,4) -> (history (H,W,4) fp16 values: the uncorrected blend and its weight, display
-        (H,W,3) uint8 codes of the corrected output)."""
-        raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0]
+        """taau_accumulate_pass.  npu_output (1,H,W,6 or 8) int8 raw steering (the first six used), color
+        (h,w,3), reprojected (H,W,4) -> (history (H,W,4) fp16 values: the uncorrected blend and its
+        weight, display (H,W,3) uint8 codes of the corrected output, without the display filter)."""
+        raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0, ..., :6]
         terms = taau.current_terms(to_half(color), as_jitter(jitter), scale, sample_sigma)
         r = to_half(reprojected)
         output, history, weight = taau.blend(*terms, r[..., :3], r[..., 3:], prior_weight, max_weight,
                                              taau.steer_from_raw(raw, correction_bound, history_gain_min))
         return to_half(np.concatenate([history, weight], axis=-1)), encode_unorm8(output)
+
+    def taau_filter(self, npu_output, history, q_scale: float, q_zero_point: int, correction_bound: float,
+                    filter_bound: float):
+        """taau_filter_pass.  npu_output (1,H,W,8) int8 raw steering, history (H,W,4) this frame's blend
+        -> display (H,W,3) uint8 codes: the blend through the steered filter, plus the correction."""
+        raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0]
+        steer = taau.steer_from_raw(raw, correction_bound, 0.0, filter_bound)
+        return encode_unorm8(taau.display(to_half(history)[..., :3], steer))

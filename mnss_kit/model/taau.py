@@ -65,18 +65,26 @@ class Steer:
     sample_gain: torch.Tensor | float = 1.0  # multiplies this frame's sample weight w
     box_widen: torch.Tensor | float = 0.0  # clamp box [lo - e (hi - lo), hi + e (hi - lo)]
     correction: torch.Tensor | float = 0.0  # added to the displayed colour (YCoCg), not to the history
+    filter_axis: torch.Tensor | float = 0.0  # display filter: weight of each of the 4 axis neighbours
+    filter_diagonal: torch.Tensor | float = 0.0  # display filter: weight of each of the 4 diagonal neighbours
 
 
 NEUTRAL = Steer()
 
 
-def steer_from_raw(raw: torch.Tensor, correction_bound: float, history_gain_min: float = 0.0) -> Steer:
-    """A steering net's raw output (N, 6, H, W) mapped to its ranges (``ops.taau.steer_from_raw``):
+def steer_from_raw(raw: torch.Tensor, correction_bound: float, history_gain_min: float = 0.0,
+                   filter_bound: float = 0.0) -> Steer:
+    """A steering net's raw output (N, 6 or 8, H, W) mapped to its ranges (``ops.taau.steer_from_raw``):
     sample gain 2 sigmoid in (0, 2), history gain the same but at least ``history_gain_min``, box
-    widening tanh / 2, correction ``correction_bound`` tanh."""
+    widening tanh / 2, correction ``correction_bound`` tanh and, with 8 channels, the display
+    filter's two weights ``filter_bound`` tanh."""
     history_gain = (2.0 * torch.sigmoid(raw[:, 0:1])).clamp(min=history_gain_min)
-    return Steer(history_gain=history_gain, sample_gain=2.0 * torch.sigmoid(raw[:, 1:2]),
-                 box_widen=0.5 * torch.tanh(raw[:, 2:3]), correction=correction_bound * torch.tanh(raw[:, 3:6]))
+    steer = Steer(history_gain=history_gain, sample_gain=2.0 * torch.sigmoid(raw[:, 1:2]),
+                  box_widen=0.5 * torch.tanh(raw[:, 2:3]), correction=correction_bound * torch.tanh(raw[:, 3:6]))
+    if raw.shape[1] > 6:
+        steer.filter_axis = filter_bound * torch.tanh(raw[:, 6:7])
+        steer.filter_diagonal = filter_bound * torch.tanh(raw[:, 7:8])
+    return steer
 
 
 def rgb_to_ycocg(x: torch.Tensor) -> torch.Tensor:
@@ -211,16 +219,36 @@ def taau_inputs(color: torch.Tensor, jitter: torch.Tensor, motion: torch.Tensor,
     return TAAUInputs(samples, sample_weight, spatial, lo, hi, history, weight)
 
 
+def display_filter(image: torch.Tensor, axis: torch.Tensor | float, diagonal: torch.Tensor | float) -> torch.Tensor:
+    """``image`` plus ``axis`` times each of its 4 axis neighbours' differences to it and ``diagonal``
+    times each of the 4 diagonal ones' (clamp-to-edge): a per-pixel 3x3 blur (weights > 0) or
+    sharpen (< 0) whose taps sum to one; zero weights leave the image as it is."""
+    if isinstance(axis, float) and isinstance(diagonal, float) and axis == 0.0 and diagonal == 0.0:
+        return image
+    p = F.pad(image, (1, 1, 1, 1), mode="replicate")
+    centre = p[:, :, 1:-1, 1:-1]
+    axial = p[:, :, :-2, 1:-1] + p[:, :, 2:, 1:-1] + p[:, :, 1:-1, :-2] + p[:, :, 1:-1, 2:] - 4.0 * centre
+    diagonals = p[:, :, :-2, :-2] + p[:, :, :-2, 2:] + p[:, :, 2:, :-2] + p[:, :, 2:, 2:] - 4.0 * centre
+    return image + axis * axial + diagonal * diagonals
+
+
 def blend(inputs: TAAUInputs, params: TAAUParams, steer: Steer = NEUTRAL) -> tuple[torch.Tensor, dict]:
     """The displayed RGB ``(N, 3, H, W)`` in [0, 1] and the next state of one (steered) TAAU step:
-    ``history`` the blend before the correction (RGB in [0, 1]), ``weight`` its accumulated sample weight."""
+    ``history`` the blend before the correction (RGB in [0, 1]), ``weight`` its accumulated sample weight.
+    The display is that history through the display filter, plus the correction."""
     span = inputs.hi - inputs.lo
     lo, hi = inputs.lo - steer.box_widen * span, inputs.hi + steer.box_widen * span
-    history = torch.minimum(torch.maximum(inputs.history, lo), hi)
+    clamped = torch.minimum(torch.maximum(inputs.history, lo), hi)
     weight = inputs.history_weight * steer.history_gain
     sample_weight = inputs.sample_weight * steer.sample_gain
     p = params.prior_weight
-    blended = (weight * history + sample_weight * inputs.samples + p * inputs.spatial) / (weight + sample_weight + p)
-    output = ycocg_to_rgb(blended + steer.correction).clamp(0.0, 1.0)
-    state = {"history": ycocg_to_rgb(blended).clamp(0.0, 1.0), "weight": (weight + sample_weight).clamp(max=params.max_weight)}
-    return output, state
+    blended = (weight * clamped + sample_weight * inputs.samples + p * inputs.spatial) / (weight + sample_weight + p)
+    history = ycocg_to_rgb(blended).clamp(0.0, 1.0)
+    filtered = display_filter(history, steer.filter_axis, steer.filter_diagonal)
+    output = (filtered + ycocg_to_rgb(_as_channels(steer.correction, history))).clamp(0.0, 1.0)
+    return output, {"history": history, "weight": (weight + sample_weight).clamp(max=params.max_weight)}
+
+
+def _as_channels(correction: torch.Tensor | float, like: torch.Tensor) -> torch.Tensor:
+    """A scalar correction as a (N, 3, H, W) tensor, for the colour transform."""
+    return correction if isinstance(correction, torch.Tensor) else torch.full_like(like, float(correction))

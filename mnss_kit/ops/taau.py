@@ -152,30 +152,56 @@ class Steer:
     sample_gain: np.ndarray | float = 1.0
     box_widen: np.ndarray | float = 0.0
     correction: np.ndarray | float = 0.0
+    filter_axis: np.ndarray | float = 0.0
+    filter_diagonal: np.ndarray | float = 0.0
 
 
-def steer_from_raw(raw: np.ndarray, correction_bound: float, history_gain_min: float = 0.0) -> Steer:
-    """The ``ntaau`` net's raw output (H, W, 6) mapped to its ranges: gains 2 sigmoid in (0, 2),
+def steer_from_raw(raw: np.ndarray, correction_bound: float, history_gain_min: float = 0.0,
+                   filter_bound: float = 0.0) -> Steer:
+    """The ``ntaau`` net's raw output (H, W, 6 or 8) mapped to its ranges: gains 2 sigmoid in (0, 2),
     the history gain at least ``history_gain_min``, box widening tanh / 2, correction
-    ``correction_bound`` tanh."""
+    ``correction_bound`` tanh and, with 8 channels, the display filter's weights ``filter_bound`` tanh."""
     raw = np.asarray(raw, np.float32)
     sigmoid = lambda x: 1.0 / (1.0 + np.exp(-x))  # noqa: E731
     history_gain = np.maximum(2.0 * sigmoid(raw[..., 0:1]), np.float32(history_gain_min))
-    return Steer(history_gain=history_gain, sample_gain=2.0 * sigmoid(raw[..., 1:2]),
-                 box_widen=0.5 * np.tanh(raw[..., 2:3]), correction=correction_bound * np.tanh(raw[..., 3:6]))
+    steer = Steer(history_gain=history_gain, sample_gain=2.0 * sigmoid(raw[..., 1:2]),
+                  box_widen=0.5 * np.tanh(raw[..., 2:3]), correction=correction_bound * np.tanh(raw[..., 3:6]))
+    if raw.shape[-1] > 6:
+        steer.filter_axis = np.float32(filter_bound) * np.tanh(raw[..., 6:7])
+        steer.filter_diagonal = np.float32(filter_bound) * np.tanh(raw[..., 7:8])
+    return steer
+
+
+def display_filter(image: np.ndarray, axis, diagonal) -> np.ndarray:
+    """``image`` (H, W, C) plus ``axis`` times each of its 4 axis neighbours' differences to it and
+    ``diagonal`` times each of the 4 diagonal ones' (clamp-to-edge): the per-pixel 3x3 filter the
+    ``ntaau`` net steers (weights > 0 blur, < 0 sharpen; the taps sum to one)."""
+    p = np.pad(image, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    centre = p[1:-1, 1:-1]
+    axial = p[:-2, 1:-1] + p[2:, 1:-1] + p[1:-1, :-2] + p[1:-1, 2:] - 4.0 * centre
+    diagonals = p[:-2, :-2] + p[:-2, 2:] + p[2:, :-2] + p[2:, 2:] - 4.0 * centre
+    return (image + axis * axial + diagonal * diagonals).astype(np.float32)
+
+
+def display(history: np.ndarray, steer: Steer) -> np.ndarray:
+    """The displayed RGB (H, W, 3) in [0, 1]: the blended ``history`` (RGB) through the display
+    filter, plus the YCoCg correction."""
+    filtered = display_filter(history, steer.filter_axis, steer.filter_diagonal)
+    correction = ycocg_to_rgb(np.broadcast_to(np.asarray(steer.correction, np.float32), history.shape))
+    return np.clip(filtered + correction, 0.0, 1.0).astype(np.float32)
 
 
 def blend(samples, sample_weight, spatial, lo, hi, history, history_weight, prior_weight: float, max_weight: float,
           steer: Steer = Steer()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One steered TAAU step (inputs in YCoCg): the displayed RGB (H, W, 3) in [0, 1], the next
-    history (the blend before the correction, RGB in [0, 1]) and its accumulated weight (H, W, 1).
-    The correction is for display only, so it cannot build up in the history."""
+    history (the blend, RGB in [0, 1]) and its accumulated weight (H, W, 1).  The display is that
+    history through the display filter plus the correction: neither builds up in the history."""
     span = hi - lo
     clamped = np.minimum(np.maximum(history, lo - steer.box_widen * span), hi + steer.box_widen * span)
     weight = history_weight * steer.history_gain
     current = sample_weight * steer.sample_gain
     mixed = (weight * clamped + current * samples + prior_weight * spatial) / (weight + current + prior_weight)
-    output = np.clip(ycocg_to_rgb(mixed + steer.correction), 0.0, 1.0)
     next_history = np.clip(ycocg_to_rgb(mixed), 0.0, 1.0)
-    return (output.astype(np.float32), next_history.astype(np.float32),
+    output = display(next_history, steer)
+    return (output, next_history.astype(np.float32),
             np.minimum(weight + current, max_weight).astype(np.float32))

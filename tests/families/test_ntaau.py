@@ -91,8 +91,37 @@ def test_the_correction_stays_out_of_the_history():
     torch.testing.assert_close(corrected_state["weight"], plain_state["weight"], atol=0, rtol=0)
 
 
-def test_random_steering_stays_finite_and_in_range():
-    model = randomise_convs(build_model(NTAAUConfig()), noise=2.0)
+def test_the_display_filter_is_bounded_and_stays_out_of_the_history():
+    """The filter weights saturate at ``filter_bound``: a flat image passes unchanged, an impulse
+    spreads by exactly the bound to each neighbour; the next history is the unfiltered blend."""
+    bound = 0.2
+    model = build_model(NTAAUConfig(filter_bound=bound, correction_bound=0.05))
+    assert model.config.steer_channels() == 8
+    raw = torch.zeros(1, 8, 12, 16)
+    raw[:, 6:] = 50.0  # both weights at +bound: a blur
+    impulse = torch.zeros(1, 3, 12, 16)
+    impulse[..., 5, 7] = 0.5
+    steer = taau.steer_from_raw(raw, 0.05, 0.0, bound)
+    axis, diagonal = steer.filter_axis, steer.filter_diagonal
+    spread = taau.display_filter(impulse, axis, diagonal)
+    torch.testing.assert_close(spread[0, 0, 4:7, 6:9], torch.tensor([[0.1, 0.1, 0.1], [0.1, 0.5 * (1 - 8 * bound), 0.1],
+                                                                     [0.1, 0.1, 0.1]]), atol=1e-6, rtol=0)
+    flat = torch.full((1, 3, 12, 16), 0.4)
+    torch.testing.assert_close(taau.display_filter(flat, -axis, diagonal), flat, atol=1e-6, rtol=0)
+    g = torch.Generator().manual_seed(4)
+    colour = 0.3 + 0.4 * torch.rand(1, 3, 6, 8, generator=g)
+    inputs = taau.taau_inputs(colour, torch.zeros(1, 2), torch.zeros(1, 2, 6, 8), torch.zeros(1), None, 2, model.params)
+    filtered_out, filtered_state = model.taau_accumulate(inputs, raw)
+    plain_out, plain_state = model.taau_accumulate(inputs, torch.zeros_like(raw))
+    assert (filtered_out - plain_out).abs().max() > 0.01
+    torch.testing.assert_close(filtered_state["history"], plain_out, atol=1e-6, rtol=0)
+    with pytest.raises(ValueError, match="filter_bound"):
+        NTAAUConfig(filter_bound=0.3)
+
+
+@pytest.mark.parametrize("filter_bound", [0.0, 0.25])
+def test_random_steering_stays_finite_and_in_range(filter_bound):
+    model = randomise_convs(build_model(NTAAUConfig(filter_bound=filter_bound)), noise=2.0)
     state = None
     with torch.no_grad():
         for frame in _frames(5):

@@ -63,3 +63,23 @@ def test_steered_accumulation_matches_reference(mesa, ref, pattern, scale):
         (history, display), (want_history, want_display) = mesa.taau_accumulate(*args), ref.taau_accumulate(*args)
         assert_float_close(history, want_history, TOLERANCE)
         assert np.abs(display.astype(int) - want_display.astype(int)).max() <= 1
+
+
+@pytest.mark.parametrize("scale", [2, 3])
+def test_display_filter_matches_reference(mesa, ref, scale):
+    """taau_filter_pass: the blend through the steered 3x3 filter (blur and sharpen, clamp-to-edge)
+    plus the correction, on Mesa against the reference; and the accumulation reads only the first
+    six of the eight steering channels."""
+    rng = np.random.default_rng(5 * scale)
+    f = random_frame(rng, H, W, scale)
+    reprojected = ref.taau_reproject(_history(rng, scale), f["motion"], scale, False, PARAMS.blur_penalty)
+    steering = rng.integers(-128, 128, (1, H * scale, W * scale, 8)).astype(np.int8)
+    args = (steering, f["color"], reprojected, (0.25, -0.25), scale, 0.02, 3, 0.1, 0.75, PARAMS.sample_sigma,
+            PARAMS.prior_weight, PARAMS.max_weight)
+    (history, display), (want_history, want_display) = mesa.taau_accumulate(*args), ref.taau_accumulate(*args)
+    assert_float_close(history, want_history, TOLERANCE)
+    assert np.array_equal(want_display, ref.taau_accumulate(steering[..., :6], *args[1:])[1])
+    filtered = mesa.taau_filter(steering, history, 0.02, 3, 0.1, 0.2)
+    want = ref.taau_filter(steering, history, 0.02, 3, 0.1, 0.2)
+    assert np.abs(filtered.astype(int) - want.astype(int)).max() <= 1
+    assert np.abs(want.astype(int) - want_display.astype(int)).max() > 8  # the filter changed the display

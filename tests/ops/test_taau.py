@@ -52,18 +52,19 @@ def test_each_step_matches_the_reference(scale):
         np.testing.assert_allclose(hwc(got[1]), want[1], atol=1e-4)  # weights up to 9
 
 
-def test_a_steered_sequence_matches_the_reference():
+@pytest.mark.parametrize("channels", [6, 8])  # 8: with the display filter
+def test_a_steered_sequence_matches_the_reference(channels):
     rng = np.random.default_rng(7)
-    scale, h, w, bound, gain_min = 2, 6, 8, 0.1, 0.75  # raw ~ N(0, 2): gains on both sides of the floor
+    scale, h, w, bound, gain_min, filter_bound = 2, 6, 8, 0.1, 0.75, 0.2  # raw ~ N(0, 2): gains on both sides of the floor
     params = torch_taau.TAAUParams()
     state, ref_history, ref_weight = None, None, None
     for t in range(5):
         colour, jitter, motion = _frame(rng, h, w)
         reset = t == 2
-        raw = rng.normal(0, 2, (h * scale, w * scale, 6)).astype(np.float32)
+        raw = rng.normal(0, 2, (h * scale, w * scale, channels)).astype(np.float32)
         inputs = torch_taau.taau_inputs(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.tensor([float(reset)]),
                                         state, scale, params)
-        out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound, gain_min))
+        out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound, gain_min, filter_bound))
 
         terms = taau.current_terms(colour, jitter, scale, params.sample_sigma)
         if ref_history is None:
@@ -71,7 +72,7 @@ def test_a_steered_sequence_matches_the_reference():
         else:
             history, weight = taau.reprojected_history(ref_history, ref_weight, motion, reset, scale)
         ref_out, ref_history, ref_weight = taau.blend(*terms, history, weight, params.prior_weight, params.max_weight,
-                                                      taau.steer_from_raw(raw, bound, gain_min))
+                                                      taau.steer_from_raw(raw, bound, gain_min, filter_bound))
         np.testing.assert_allclose(hwc(out), ref_out, atol=1e-4)
         np.testing.assert_allclose(hwc(state["history"]), ref_history, atol=1e-4)
         np.testing.assert_allclose(hwc(state["weight"]), ref_weight, atol=1e-4)

@@ -7,6 +7,7 @@ from typing import Literal
 
 SCALES = (2, 3, 4)
 STEER_CHANNELS = 6  # per HR pixel: history gain, sample gain, box widening, YCoCg correction (3)
+FILTER_CHANNELS = 2  # per HR pixel, with a display filter: its axis and diagonal weights
 
 
 @dataclass
@@ -23,6 +24,9 @@ class NTAAUConfig:
     # 1: the net may trust the history more than TAAU does but never less; it rejects history only
     # by narrowing the clamp box, as TAAU does (0: the gain spans (0, 2))
     history_gain_min: float = 0.0
+    # > 0: the net also steers a 3x3 filter of the displayed frame (model.taau.display_filter), each
+    # of its two weights (axis and diagonal neighbours) at most this; 0: no filter (6 channels)
+    filter_bound: float = 0.0
     alpha: float = 0.1  # TAAU's converged blend factor (model.taau.TAAUParams)
 
     def __post_init__(self):
@@ -34,6 +38,12 @@ class NTAAUConfig:
             raise ValueError(f"correction_bound must be in [0, 0.5], got {self.correction_bound}")
         if not 0.0 <= self.history_gain_min <= 1.0:
             raise ValueError(f"history_gain_min must be in [0, 1], got {self.history_gain_min}")
+        if not 0.0 <= self.filter_bound <= 0.25:
+            raise ValueError(f"filter_bound must be in [0, 0.25], got {self.filter_bound}")
+
+    def steer_channels(self) -> int:
+        """Raw steering values per HR pixel: 6, and 2 more with a display filter."""
+        return STEER_CHANNELS + (FILTER_CHANNELS if self.filter_bound > 0 else 0)
 
     def npu_input_channels(self) -> int:
         """LR colour (3), clamped history (3 s^2), history weight (s^2) and clamp distance (s^2)."""

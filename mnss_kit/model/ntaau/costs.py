@@ -16,5 +16,10 @@ def fixed_macs(c) -> dict[str, float]:
     return {
         "taau_gather": reproject + samples + 3 * BICUBIC + 9 + 9 * 3 * 2 * lr + 3 + 6 + 3,  # bicubic, YCoCg, box, features
         "steer": 0.0,
-        "taau_accumulate": 6 * TRANSCENDENTAL + 3 * 4 + 6 + 3 * 3 + 4 + 6,  # activations, box, clamp, blend, RGB
-    }
+        "taau_accumulate": 6 * TRANSCENDENTAL + 3 * 4 + 6 + 3 * 3 + 4 + 6 + display_filter(c),  # activations, box, clamp,
+    }                                                                                            # blend, RGB, filter
+
+
+def display_filter(c) -> float:
+    """taau_filter_pass: two weights and the three correction values again, 9 taps of 3 channels."""
+    return 5 * TRANSCENDENTAL + 9 * 3 + 3 * 3 if c.filter_bound > 0 else 0.0

@@ -2,8 +2,9 @@
 
 Per frame: ``taau_reproject_pass`` (the previous uncorrected blend and its weight warped to this frame;
 weight 0 on a reset), ``taau_pack_pass`` (the int8 NPU input at LR), the NPU steering net,
-``taau_accumulate_pass`` (the steered TAAU blend: display and the next history).  No learned
-weights run on the GPU.  The building blocks are :mod:`mnss_kit.gpu.plan`'s.
+``taau_accumulate_pass`` (the steered TAAU blend: display and the next history) and, when the net
+steers a display filter, ``taau_filter_pass`` (the display again: the blend filtered, plus the
+correction).  No learned weights run on the GPU.  The building blocks are :mod:`mnss_kit.gpu.plan`'s.
 """
 
 from __future__ import annotations
@@ -13,14 +14,19 @@ import numpy as np
 from ...gpu import passes as P
 from ...gpu.plan import const, pass_entries, per_frame, quantize_uniforms, step, word_count
 from ..taau import TAAUParams
-from .config import STEER_CHANNELS, NTAAUConfig
+from .config import NTAAUConfig
 
-PASSES_USED = {"taau_reproject_pass", "taau_pack_pass", "taau_accumulate_pass"}
+PASSES_USED = ("taau_reproject_pass", "taau_pack_pass", "taau_accumulate_pass")
+FILTER_PASS = "taau_filter_pass"
+
+
+def passes_used(config: NTAAUConfig) -> set[str]:
+    return set(PASSES_USED) | ({FILTER_PASS} if config.filter_bound > 0 else set())
 
 
 def bundle_gpu_plan(config: NTAAUConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
     """The family record's ``gpu_plan``: passes, weight blocks (none), resources and schedule."""
-    return {"passes": pass_entries(PASSES_USED), "weights": [], "resources": resources(config, lr_size),
+    return {"passes": pass_entries(passes_used(config)), "weights": [], "resources": resources(config, lr_size),
             "schedule": schedule(config, lr_size, npu, profile)}
 
 
@@ -50,8 +56,8 @@ def resources(config: NTAAUConfig, lr_size: tuple[int, int]) -> list[dict]:
         _tex("reprojected", hr, "rgba16f", "intermediate", "the history warped to this frame (YCoCg) and its weight", 4),
         _buf("npu_input", input_words(config, lr_size), "int8 NHWC (1, h, w, 3 + 5 s^2) NPU input at LR, 4 bytes per word, "
              "little-endian"),
-        _buf("npu_output", word_count(lr_size, config.scale, STEER_CHANNELS),
-             "int8 NHWC (1, H, W, 6) raw steering from the NPU, 4 bytes per word, little-endian"),
+        _buf("npu_output", word_count(lr_size, config.scale, config.steer_channels()),
+             f"int8 NHWC (1, H, W, {config.steer_channels()}) raw steering from the NPU, 4 bytes per word, little-endian"),
         _tex("display", hr, P.DISPLAY_FORMAT, "output", "the frame to show (8-bit codes)", 3),
     ]
 
@@ -63,6 +69,7 @@ def schedule(config: NTAAUConfig, lr_size: tuple[int, int], npu: dict, profile: 
     a = dict(lr_size=lr_size, scale=s)
     words = input_words(config, lr_size)
     out_scale, out_zp = npu["output_q"]
+    dequantize = {"u_q_scale": const(float(np.float32(out_scale))), "u_q_zero_point": const(int(out_zp))}
     steps = [
         step("taau_reproject_pass", "reproject history", "taau_gather",
              {"history": "history", "motion": "motion", "reprojected": "reprojected"},
@@ -76,12 +83,17 @@ def schedule(config: NTAAUConfig, lr_size: tuple[int, int], npu: dict, profile: 
         step("taau_accumulate_pass", "steered accumulation", "taau_accumulate",
              {"npu_output": "npu_output", "color": "color", "reprojected": "reprojected", "history": "history",
               "display": "display"},
-             {"u_scale": const(s), "u_jitter": per_frame("offset"), "u_q_scale": const(float(np.float32(out_scale))),
-              "u_q_zero_point": const(int(out_zp)), "u_correction_bound": const(config.correction_bound),
+             {"u_scale": const(s), "u_steer_channels": const(config.steer_channels()), "u_jitter": per_frame("offset"),
+              **dequantize, "u_correction_bound": const(config.correction_bound),
               "u_history_gain_min": const(config.history_gain_min),
               "u_sample_sigma": const(params.sample_sigma), "u_prior_weight": const(params.prior_weight),
               "u_max_weight": const(params.max_weight)}, **a),
     ]
+    if config.filter_bound > 0:
+        steps.append(step(FILTER_PASS, "display filter", "taau_accumulate",
+                          {"npu_output": "npu_output", "history": "history", "display": "display"},
+                          {**dequantize, "u_correction_bound": const(config.correction_bound),
+                           "u_filter_bound": const(config.filter_bound)}, **a))
     return {
         "steps": steps,
         "end_of_frame": [],

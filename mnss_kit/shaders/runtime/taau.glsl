@@ -82,7 +82,7 @@ Neighbourhood neighbourhood_at(highp sampler2D color, ivec2 hr, vec2 jitter, int
     return n;
 }
 
-// The steering of one HR pixel from the net's six raw values (ops.taau.steer_from_raw).
+// The steering of one HR pixel from the net's first six raw values (ops.taau.steer_from_raw).
 struct Steer {
     float history_gain;
     float sample_gain;
@@ -90,19 +90,34 @@ struct Steer {
     vec3 correction;
 };
 
+// The YCoCg correction from raw values 3-5, and a display filter weight from raw value 6 or 7.
+vec3 correction_from_raw(vec3 raw, float correction_bound) {
+    return correction_bound * vec3(tanh(raw.x), tanh(raw.y), tanh(raw.z));
+}
+
+float filter_weight_from_raw(float raw, float filter_bound) {
+    return filter_bound * tanh(raw);
+}
+
 Steer steer_from_raw(float raw[6], float correction_bound, float history_gain_min) {
     Steer s;
     s.history_gain = max(2.0 / (1.0 + exp(-raw[0])), history_gain_min);
     s.sample_gain = 2.0 / (1.0 + exp(-raw[1]));
     s.box_widen = 0.5 * tanh(raw[2]);
-    s.correction = correction_bound * vec3(tanh(raw[3]), tanh(raw[4]), tanh(raw[5]));
+    s.correction = correction_from_raw(vec3(raw[3], raw[4], raw[5]), correction_bound);
     return s;
+}
+
+// The displayed RGB (ops.taau.display): the blend (RGB), after the display filter if any, plus the
+// YCoCg correction, clamped.
+vec3 corrected(vec3 blend_rgb, vec3 correction) {
+    return clamp(blend_rgb + ycocg_to_rgb(correction), 0.0, 1.0);
 }
 
 // One steered TAAU step (ops.taau.blend).  `history` is the reprojected YCoCg history (rgb) and
 // its weight (a).  The correction goes to the display only: the next history is the blend before it.
 struct Blended {
-    vec3 display;  // RGB in [0, 1]
+    vec3 display;  // RGB in [0, 1], without the display filter
     vec4 history;  // the uncorrected blend, RGB in [0, 1] (rgb), and the accumulated weight (a)
 };
 
@@ -113,7 +128,28 @@ Blended steered_blend(Neighbourhood n, vec3 spatial, vec4 history, Steer s, floa
     float current = n.samples.a * s.sample_gain;
     vec3 mixed = (weight * clamped + current * n.samples.rgb + prior_weight * spatial) / (weight + current + prior_weight);
     Blended b;
-    b.display = clamp(ycocg_to_rgb(mixed + s.correction), 0.0, 1.0);
     b.history = vec4(clamp(ycocg_to_rgb(mixed), 0.0, 1.0), min(weight + current, max_weight));
+    b.display = corrected(b.history.rgb, s.correction);
     return b;
+}
+
+// The display filter at HR texel `hr` of the blend `image` (rgb; ops.taau.display_filter): the
+// texel plus `axis` times each axis neighbour's difference to it and `diagonal` times each
+// diagonal one's, clamp-to-edge.
+vec3 display_filter_at(highp sampler2D image, ivec2 hr, float axis, float diagonal) {
+    ivec2 last = textureSize(image, 0) - 1;
+    vec3 centre = texelFetch(image, hr, 0).rgb;
+    vec3 axial = -4.0 * centre;
+    vec3 diagonals = -4.0 * centre;
+    for (int dy = -1; dy <= 1; dy++) {
+        for (int dx = -1; dx <= 1; dx++) {
+            vec3 c = texelFetch(image, clamp(hr + ivec2(dx, dy), ivec2(0), last), 0).rgb;
+            if (dx != 0 && dy != 0) {
+                diagonals += c;
+            } else if (dx != 0 || dy != 0) {
+                axial += c;
+            }
+        }
+    }
+    return centre + axis * axial + diagonal * diagonals;
 }

@@ -1,10 +1,12 @@
 #version 310 es
 // taau_accumulate_pass: one invocation per HR texel.
-//   in   npu_output   std430 uint[]  int8 NHWC (1, H, W, 6): the steering net's raw output
+//   in   npu_output   std430 uint[]  int8 NHWC (1, H, W, u_steer_channels): the steering net's raw
+//                                    output (the first six here; two more steer taau_filter_pass)
 //        color        LR rgba16f     jittered LR colour, display values
 //        reprojected  HR rgba16f     taau_reproject_pass
 //   out  history      HR rgba16f     the blend before the correction (rgb) and its accumulated weight (a)
-//        display      HR rgba8       the corrected output as 8-bit display codes
+//        display      HR rgba8       the corrected output as 8-bit display codes (taau_filter_pass
+//                                    replaces it in models with a display filter)
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -19,6 +21,7 @@ layout(rgba16f, binding = 0) uniform writeonly highp image2D history;
 layout(rgba8, binding = 1) uniform writeonly highp image2D display;
 
 uniform int u_scale;
+uniform int u_steer_channels;
 uniform vec2 u_jitter;
 uniform float u_q_scale;
 uniform int u_q_zero_point;
@@ -31,8 +34,6 @@ uniform float u_max_weight;
 #include "display.glsl"
 #include "taau.glsl"
 
-const int STEER_CHANNELS = 6;
-
 void main() {
     ivec2 hr = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(history);
@@ -40,8 +41,8 @@ void main() {
         return;
     }
     float raw[6];
-    for (int c = 0; c < STEER_CHANNELS; c++) {
-        int b = (hr.y * size.x + hr.x) * STEER_CHANNELS + c;
+    for (int c = 0; c < 6; c++) {
+        int b = (hr.y * size.x + hr.x) * u_steer_channels + c;
         raw[c] = dequantize_int8(int8_of_word(npu_output[b / 4], b % 4), u_q_scale, u_q_zero_point);
     }
     Neighbourhood n = neighbourhood_at(color, hr, u_jitter, u_scale, u_sample_sigma);
