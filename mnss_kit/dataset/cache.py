@@ -12,10 +12,14 @@ next build.  Each ``.npy`` is written under a temporary name and renamed when
 complete: a killed build leaves no file that could be mistaken for a cache, and
 the next build removes its temporary file.  A file damaged later (truncated,
 a bad header, another shape) is found by :meth:`SequenceCache.damage` and rebuilt.
+Builds hold a lock on the cache directory, so two trainings started together
+on the same data decode it once: the second waits and then finds it built.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import logging
 import os
@@ -105,14 +109,15 @@ class SequenceCache:
     def path(self, res: str, buffer: str) -> Path:
         return self.dir / f"{res}_{buffer}.npy"
 
-    def missing(self, buffers: Iterable[tuple[str, str]]) -> list[tuple[str, str]]:
-        """The buffers to (re)build: absent, or damaged (said in one log line each)."""
+    def missing(self, buffers: Iterable[tuple[str, str]], report: bool = True) -> list[tuple[str, str]]:
+        """The buffers to (re)build: absent, or damaged (said in one log line each when ``report``)."""
         todo = []
         for r, b in buffers:
             if not self.path(r, b).is_file():
                 todo.append((r, b))
             elif problem := self.damage(r, b):
-                log.warning("cache file %s is damaged (%s); rebuilding it", self.path(r, b), problem)
+                if report:
+                    log.warning("cache file %s is damaged (%s); rebuilding it", self.path(r, b), problem)
                 todo.append((r, b))
         return todo
 
@@ -197,9 +202,41 @@ def prepare_caches(
         raise UserError(f"cannot create cache directory {cache_root} ({e.strerror}); choose another with --cache-dir") from None
     metas = list(metas) if metas is not None else [None] * len(seq_dirs)
     caches = [SequenceCache(s, cache_root, m) for s, m in zip(seq_dirs, metas)]
-    todo = [(c, r, b) for c in caches for r, b in c.missing(buffers)]
-    if not todo:
+    if not any(c.missing(buffers, report=False) for c in caches):
         return caches
+    with _build_lock(cache_root):  # another process may have built them while this one waited
+        todo = [(c, r, b) for c in caches for r, b in c.missing(buffers)]
+        if todo:
+            _build(todo, cache_root, progress)
+    return caches
+
+
+@contextlib.contextmanager
+def _build_lock(cache_root: Path):
+    """An exclusive lock on ``cache_root`` for the duration of a build (released if the process dies)."""
+    try:
+        handle = open(cache_root / ".build.lock", "a")
+    except OSError as e:
+        raise UserError(f"cannot write the dataset cache in {cache_root} ({e.strerror}); choose another with --cache-dir") from None
+    with handle:
+        if not _try_lock(handle):
+            log.info("waiting for another process building the dataset cache in %s", cache_root)
+            fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _try_lock(handle) -> bool:
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        return True
+    except BlockingIOError:
+        return False
+
+
+def _build(todo: list[tuple[SequenceCache, str, str]], cache_root: Path, progress: bool) -> None:
     from tqdm import tqdm
 
     total = sum(c.meta.frame_count for c, _, _ in todo)
@@ -211,4 +248,3 @@ def prepare_caches(
                 cache.build(res, buffer, on_frame=lambda: bar.update(1))
             except OSError as e:  # read-only dataset directory, disk full
                 raise UserError(f"cannot write the dataset cache in {cache_root} ({e.strerror}); choose another with --cache-dir") from None
-    return caches

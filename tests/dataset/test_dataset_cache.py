@@ -137,3 +137,25 @@ def test_nan_pixels_stop_the_loader_with_one_line(dataset, tmp_path):
             for i in range(len(ds)):
                 ds[i]
         assert "\n" not in str(e.value)
+
+
+def test_a_build_waits_for_another_one_and_does_not_repeat_it(dataset, tmp_path, monkeypatch):
+    """Two trainings started together on the same data decode it once: while another process
+    holds the build lock a second build waits, then finds the arrays built."""
+    import fcntl
+    import threading
+
+    seq, root = dataset / "pan", tmp_path / "cache"
+    root.mkdir()
+    done = threading.Event()
+    with open(root / ".build.lock", "a") as other:
+        fcntl.flock(other, fcntl.LOCK_EX)  # the other process, building
+        waiting = threading.Thread(target=lambda: (prepare_caches([seq], BUFFERS, root, progress=False), done.set()))
+        waiting.start()
+        assert not done.wait(0.5)
+        for r, b in BUFFERS:  # what the other process builds meanwhile
+            SequenceCache(seq, root).build(r, b)
+        monkeypatch.setattr(SequenceCache, "build", lambda *a, **k: pytest.fail("built again"))
+        fcntl.flock(other, fcntl.LOCK_UN)
+    waiting.join(30)
+    assert done.is_set()
