@@ -330,18 +330,25 @@ def device_estimates(model, devices: tuple[str, ...], hr_size: tuple[int, int]) 
     return {d: plan_flow(flow, load_device(d), "default", hr_size).estimated_frame_ms for d in devices}
 
 
-def emulated(name: str, data: Path, calibration: Path, settings: Settings, bundle: Path) -> dict:
-    """The int8 model through its bundle and the emulator: mean PSNR of the displayed frames and the
-    median emulated seconds per frame (the desktop emulator's time)."""
+def export_at_size(name: str, data: Path, calibration: Path, bundle: Path) -> Path:
+    """``mnss-kit export`` of ``name`` into ``bundle`` at ``data``'s HR size, calibrated on ``calibration``."""
     from ..dataset import format as fmt
-    from ..emulate.frame_loop import Emulator
-    from ..emulate.sequence import run_dataset
     from ..export.pipeline import ExportRequest, export
 
     meta = fmt.read_meta(fmt.find_sequences(data)[0])
     w, h = meta.lr_size
     export(ExportRequest(model=name, out=bundle, resolution=f"{w * meta.scale}x{h * meta.scale}", data=calibration,
                          overwrite=True, progress=False))
+    return bundle
+
+
+def emulated(name: str, data: Path, calibration: Path, settings: Settings, bundle: Path) -> dict:
+    """The int8 model through its bundle and the emulator: mean PSNR of the displayed frames and the
+    median emulated seconds per frame (the desktop emulator's time)."""
+    from ..emulate.frame_loop import Emulator
+    from ..emulate.sequence import run_dataset
+
+    export_at_size(name, data, calibration, bundle)
     report = run_dataset(Emulator(bundle), data, frames=settings.emulated_frames)
     summaries = [s["summary"] for s in report["sequences"].values()]
     return {"emulated_psnr": statistics.fmean(s["mean_psnr_db"] for s in summaries if "mean_psnr_db" in s),

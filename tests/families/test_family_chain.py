@@ -192,6 +192,20 @@ def test_emulate_cli_runs_a_sequence(bundle, chain, tmp_path):
     assert all(s["summary"]["frames"] == 2 for s in metrics["sequences"].values())
 
 
+def test_the_bundle_is_scored_as_an_eval_method(bundle, chain):
+    """``eval.methods.bundle_method``: the emulated int8 frames scored by the evaluation loop give
+    the PSNR the emulator reports for the same frames."""
+    from mnss_kit.emulate.frame_loop import Emulator
+    from mnss_kit.emulate.sequence import run_dataset
+    from mnss_kit.eval.methods import bundle_method
+    from mnss_kit.eval.run import evaluate
+
+    result = evaluate({"int8": bundle_method(bundle)}, chain["data"], max_frames=2, progress=False)
+    report = run_dataset(Emulator(bundle), chain["data"], frames=2)
+    for name, entry in result["sequences"].items():
+        assert entry["methods"]["int8"]["psnr"] == pytest.approx(report["sequences"][name]["summary"]["mean_psnr_db"], abs=1e-3)
+
+
 def test_java_core_reads_verifies_and_self_tests_the_bundle(bundle, chain, java_core, tmp_path):
     """The Android core's bundle and golden contract on the family's bundle: hashes verified,
     every field read, the schedule accepted, the self-test over its golden frames passed."""
