@@ -8,6 +8,7 @@ Writes ``bench/results/heldout_results.json`` and ``docs/results.md`` (with one 
 
     python scripts/heldout_results.py                     # the shipped ntaau_x2, ntaau_x2_fast and mnss_x2
     python scripts/heldout_results.py --models runs/ntaau_x2/model.pt runs/ntaau_x2_fast/model.pt mnss_x2
+    python scripts/heldout_results.py --sets unseen_x2    # one set; another process may run the other
     python scripts/heldout_results.py --doc-only
 
 The first model is the candidate default the targets are checked for; the second the fast one.
@@ -20,6 +21,8 @@ same models and frame count).  Every sequence is cut to its first FRAMES frames.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import fcntl
 import sys
 from pathlib import Path
 
@@ -68,28 +71,53 @@ def evaluate_entry(models: list[str], data: Path, crops: Path | None, int8: bool
     return quality_table(result, methods)
 
 
-def run(models: list[str]) -> dict:
+def read_results(models: list[str]) -> dict:
+    """The results so far for ``models`` (empty when the file holds other models or frames)."""
     doc = read_json(RESULTS) if RESULTS.is_file() else {}
     if doc.get("models") != models or doc.get("frames") != FRAMES:
         doc = {"models": models, "labels": [model_label(m) for m in models], "frames": FRAMES, "sets": {}}
-    for config, base in SETS.items():
+    return doc
+
+
+@contextlib.contextmanager
+def results_lock():
+    """Held while the results file is read, changed and written: processes running other sets add to it."""
+    RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    with open(RESULTS.with_suffix(".lock"), "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        yield
+
+
+def run(models: list[str], sets: list[str]) -> dict:
+    with results_lock():
+        doc = read_results(models)
+        atomic_write_json(RESULTS, doc)
+    for config in sets:
+        base = SETS[config]
         for variant in SHOWN:
-            entries = doc["sets"].setdefault(config, {})
-            if variant in entries:
+            if variant in doc["sets"].get(config, {}):
                 continue
             print(f"{config} / {variant}", flush=True)
             data = variant_set(variant, config, WORK, RENDER_FRAMES, base=REPO / base if base else None)
             crops = CROPS / config if variant == "mnss" else None
-            entries[variant] = evaluate_entry(models, data, crops, int8=config == "unseen_x2" and variant == "mnss")
-            atomic_write_json(RESULTS, doc)
+            entry = evaluate_entry(models, data, crops, int8=config == "unseen_x2" and variant == "mnss")
+            with results_lock():
+                doc = read_results(models)
+                doc["sets"].setdefault(config, {})[variant] = entry
+                atomic_write_json(RESULTS, doc)
     return doc
+
+
+def in_order(doc: dict) -> list[tuple[str, dict]]:
+    """The results' sets in the order of SETS, whichever process finished first."""
+    return [(config, doc["sets"][config]) for config in SETS if config in doc["sets"]]
 
 
 def checks(doc: dict) -> list[str]:
     """The targets, each as one line stating the measured numbers and whether it is met."""
     default, fast = doc["labels"][0], (doc["labels"][1] if len(doc["labels"]) > 1 else None)
     lines = []
-    for config, entries in doc["sets"].items():
+    for config, entries in in_order(doc):
         for variant, entry in entries.items():
             m, t, b = (entry["methods"][k] for k in (default, "taau", "bicubic"))
             below = [f"{seq} ({metric} {per[default][metric]:.4g} < {per['taau'][metric]:.4g})"
@@ -120,7 +148,7 @@ def shown_crops(doc: dict) -> dict[str, tuple[str, str]]:
     default model's worst region, on the sequence where it is furthest below (or least above)
     TAAU with the MNSS jitter, in the last frame cropped."""
     default, shown = doc["labels"][0], {}
-    for config, entries in doc["sets"].items():
+    for config, entries in in_order(doc):
         per = entries.get("mnss", {}).get("sequences", {})
         if not per:
             continue
@@ -145,7 +173,7 @@ def write_doc(doc: dict) -> None:
              "training config renders: the factory interior (`factory_u*`) and furnished rooms (`rooms_u*`) whose real "
              "meshes and photographic textures no training scene uses (docs/assets.md).  Variants: "
              + "; ".join(f"**{v}**: {VARIANTS[v][2]}" for v in SHOWN) + ".", "", "## Targets", "", *checks(doc), "", "## Means", ""]
-    for config, entries in doc["sets"].items():
+    for config, entries in in_order(doc):
         for variant, entry in entries.items():
             shown = [m for m in methods if m in entry["methods"]]
             lines += [f"### `{config}` / {variant}", "", "| method | PSNR | SSIM | IF-SSIM | temporal error | phase offset |",
@@ -174,9 +202,14 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", nargs="+", default=[DEFAULT_MODEL, "ntaau_x2_fast", "mnss_x2"],
                         help="checkpoints or shipped names; the first is the candidate default, the second the fast one")
+    parser.add_argument("--sets", nargs="+", choices=list(SETS), default=list(SETS),
+                        help="run these sets only (processes running different sets share the results file)")
     parser.add_argument("--doc-only", action="store_true")
     args = parser.parse_args()
-    doc = read_json(RESULTS) if args.doc_only else run(args.models)
+    if args.doc_only and not RESULTS.is_file():
+        print(f"error: no results in {RESULTS.relative_to(REPO)} yet; run without --doc-only first", file=sys.stderr)
+        return 2
+    doc = read_json(RESULTS) if args.doc_only else run(args.models, args.sets)
     write_doc(doc)
     return 0
 
