@@ -372,18 +372,19 @@ class MesaPasses:
         return np.frombuffer(out.read(), dtype=np.int8)[:nbytes].reshape(1, h, w, channels).copy()
 
     @_in_own_context
-    def taau_accumulate(self, npu_output, color, reprojected, jitter, scale: int, q_scale: float, q_zero_point: int,
-                        correction_bound: float, history_gain_min: float, sample_sigma: float, prior_weight: float,
-                        max_weight: float):
+    def taau_accumulate(self, npu_output, color, reprojected, motion, jitter, scale: int, q_scale: float, q_zero_point: int,
+                        correction_bound: float, history_gain_min: float, still_motion_px: float, sample_sigma: float,
+                        prior_weight: float, max_weight: float):
         _, hh, hw, _ = npu_output.shape
         raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
         raw += b"\0" * (-len(raw) % 4)
         history, display = self.empty((hw, hh), "rgba16f"), self.empty((hw, hh), "rgba8")
         res = {"npu_output": self.ctx.buffer(raw), "color": self.texture(color, "rgba16f"),
-               "reprojected": self.texture(reprojected, "rgba16f"), "history": history, "display": display}
+               "reprojected": self.texture(reprojected, "rgba16f"), "motion": self.texture(motion, "rg32f"),
+               "history": history, "display": display}
         uni = {"u_scale": scale, "u_steer_channels": int(npu_output.shape[-1]), "u_jitter": _vec2(jitter), "u_q_scale": float(np.float32(q_scale)),
                "u_q_zero_point": int(q_zero_point), "u_correction_bound": float(correction_bound),
-               "u_history_gain_min": float(history_gain_min),
+               "u_history_gain_min": float(history_gain_min), "u_still_motion_px": float(still_motion_px),
                "u_sample_sigma": float(sample_sigma), "u_prior_weight": float(prior_weight), "u_max_weight": float(max_weight)}
         self.run("taau_accumulate_pass", (hw, hh), res, uni)
         return self.read(history, "rgba16f", 4), self.read(display, "rgba8", 3)

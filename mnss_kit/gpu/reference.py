@@ -163,17 +163,18 @@ class ReferencePasses:
         features = taau.steering_features(to_half(color), r[..., :3], r[..., 3:], scale, max_weight)
         return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]
 
-    def taau_accumulate(self, npu_output, color, reprojected, jitter, scale: int, q_scale: float, q_zero_point: int,
-                        correction_bound: float, history_gain_min: float, sample_sigma: float, prior_weight: float,
-                        max_weight: float):
+    def taau_accumulate(self, npu_output, color, reprojected, motion, jitter, scale: int, q_scale: float, q_zero_point: int,
+                        correction_bound: float, history_gain_min: float, still_motion_px: float, sample_sigma: float,
+                        prior_weight: float, max_weight: float):
         """taau_accumulate_pass.  npu_output (1,H,W,6 or 8) int8 raw steering (the first six used), color
-        (h,w,3), reprojected (H,W,4) -> (history (H,W,4) fp16 values: the uncorrected blend and its
-        weight, display (H,W,3) uint8 codes of the corrected output, without the display filter)."""
+        (h,w,3), reprojected (H,W,4), motion (h,w,2) -> (history (H,W,4) fp16 values: the uncorrected
+        blend and its weight, display (H,W,3) uint8 codes of the corrected output, without the display filter)."""
         raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0, ..., :6]
         terms = taau.current_terms(to_half(color), as_jitter(jitter), scale, sample_sigma)
         r = to_half(reprojected)
+        floor = taau.history_floor(taau.motion_length(motion, scale), history_gain_min, still_motion_px)
         output, history, weight = taau.blend(*terms, r[..., :3], r[..., 3:], prior_weight, max_weight,
-                                             taau.steer_from_raw(raw, correction_bound, history_gain_min))
+                                             taau.steer_from_raw(raw, correction_bound, floor))
         return to_half(np.concatenate([history, weight], axis=-1)), encode_unorm8(output)
 
     def taau_filter(self, npu_output, history, q_scale: float, q_zero_point: int, correction_bound: float,

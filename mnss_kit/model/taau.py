@@ -72,13 +72,22 @@ class Steer:
 NEUTRAL = Steer()
 
 
-def steer_from_raw(raw: torch.Tensor, correction_bound: float, history_gain_min: float = 0.0,
+def history_floor(motion_px: torch.Tensor, history_gain_min: float, still_motion_px: float) -> torch.Tensor | float:
+    """The least history gain per HR pixel (``ops.taau.history_floor``): ``history_gain_min`` where
+    the surface moved less than ``still_motion_px`` HR pixels, fading linearly to 0 at that motion
+    (everywhere when ``still_motion_px`` is 0).  ``motion_px`` (N, 1, H, W): the HR motion's length."""
+    if still_motion_px <= 0.0:
+        return history_gain_min
+    return history_gain_min * (1.0 - motion_px / still_motion_px).clamp(0.0, 1.0)
+
+
+def steer_from_raw(raw: torch.Tensor, correction_bound: float, history_gain_min: torch.Tensor | float = 0.0,
                    filter_bound: float = 0.0) -> Steer:
     """A steering net's raw output (N, 6 or 8, H, W) mapped to its ranges (``ops.taau.steer_from_raw``):
     sample gain 2 sigmoid in (0, 2), history gain the same but at least ``history_gain_min``, box
     widening tanh / 2, correction ``correction_bound`` tanh and, with 8 channels, the display
     filter's two weights ``filter_bound`` tanh."""
-    history_gain = (2.0 * torch.sigmoid(raw[:, 0:1])).clamp(min=history_gain_min)
+    history_gain = torch.maximum(2.0 * torch.sigmoid(raw[:, 0:1]), torch.as_tensor(history_gain_min, dtype=raw.dtype))
     steer = Steer(history_gain=history_gain, sample_gain=2.0 * torch.sigmoid(raw[:, 1:2]),
                   box_widen=0.5 * torch.tanh(raw[:, 2:3]), correction=correction_bound * torch.tanh(raw[:, 3:6]))
     if raw.shape[1] > 6:
@@ -203,6 +212,7 @@ class TAAUInputs:
     hi: torch.Tensor
     history: torch.Tensor  # (N, 3, H, W) reprojected, not clamped
     history_weight: torch.Tensor  # (N, 1, H, W)
+    motion_px: torch.Tensor  # (N, 1, H, W) the length of the HR motion, HR pixels
 
 
 def taau_inputs(color: torch.Tensor, jitter: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor, state: dict | None,
@@ -216,7 +226,8 @@ def taau_inputs(color: torch.Tensor, jitter: torch.Tensor, motion: torch.Tensor,
         history, weight = spatial, torch.zeros_like(spatial[:, :1])
     else:
         history, weight = reprojected_history(state["history"], state["weight"], motion, reset, scale, params)
-    return TAAUInputs(samples, sample_weight, spatial, lo, hi, history, weight)
+    motion_px = upsample_motion(motion, scale).norm(dim=1, keepdim=True)
+    return TAAUInputs(samples, sample_weight, spatial, lo, hi, history, weight, motion_px)
 
 
 def display_filter(image: torch.Tensor, axis: torch.Tensor | float, diagonal: torch.Tensor | float) -> torch.Tensor:

@@ -156,14 +156,29 @@ class Steer:
     filter_diagonal: np.ndarray | float = 0.0
 
 
-def steer_from_raw(raw: np.ndarray, correction_bound: float, history_gain_min: float = 0.0,
+def history_floor(motion_px: np.ndarray, history_gain_min: float, still_motion_px: float):
+    """The least history gain per HR pixel: ``history_gain_min`` where the surface moved less than
+    ``still_motion_px`` HR pixels (``motion_px`` (H, W, 1), the HR motion's length), fading linearly
+    to 0 at that motion; ``history_gain_min`` everywhere when ``still_motion_px`` is 0."""
+    if still_motion_px <= 0.0:
+        return np.float32(history_gain_min)
+    return (np.float32(history_gain_min) * np.clip(1.0 - motion_px / np.float32(still_motion_px), 0.0, 1.0)).astype(np.float32)
+
+
+def motion_length(motion: np.ndarray, scale: int) -> np.ndarray:
+    """(H, W, 1): the length of the HR motion upsampled from the LR ``motion`` (h, w, 2), HR pixels."""
+    hr = upsample_motion(np.asarray(motion, np.float32), scale)
+    return np.sqrt((hr * hr).sum(axis=-1, keepdims=True)).astype(np.float32)
+
+
+def steer_from_raw(raw: np.ndarray, correction_bound: float, history_gain_min=0.0,
                    filter_bound: float = 0.0) -> Steer:
     """The ``ntaau`` net's raw output (H, W, 6 or 8) mapped to its ranges: gains 2 sigmoid in (0, 2),
     the history gain at least ``history_gain_min``, box widening tanh / 2, correction
     ``correction_bound`` tanh and, with 8 channels, the display filter's weights ``filter_bound`` tanh."""
     raw = np.asarray(raw, np.float32)
     sigmoid = lambda x: 1.0 / (1.0 + np.exp(-x))  # noqa: E731
-    history_gain = np.maximum(2.0 * sigmoid(raw[..., 0:1]), np.float32(history_gain_min))
+    history_gain = np.maximum(2.0 * sigmoid(raw[..., 0:1]), np.asarray(history_gain_min, np.float32))
     steer = Steer(history_gain=history_gain, sample_gain=2.0 * sigmoid(raw[..., 1:2]),
                   box_widen=0.5 * np.tanh(raw[..., 2:3]), correction=correction_bound * np.tanh(raw[..., 3:6]))
     if raw.shape[-1] > 6:

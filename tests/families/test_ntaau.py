@@ -73,6 +73,28 @@ def test_the_history_gain_floor_keeps_what_taau_trusts():
         NTAAUConfig(history_gain_min=1.5)
 
 
+def test_the_floor_holds_where_the_surface_is_still():
+    """With ``still_motion_px`` the floor holds on still pixels (TAAU's blend for a net asking for
+    less history) and is gone where the motion reaches it (the net's lower gain is used)."""
+    g = torch.Generator().manual_seed(2)
+    params = taau.TAAUParams()
+    colour = 0.3 + 0.4 * torch.rand(1, 3, 6, 8, generator=g)
+    first = taau.taau_inputs(colour, torch.zeros(1, 2), torch.zeros(1, 2, 6, 8), torch.zeros(1), None, 2, params)
+    _, state = taau.blend(first, params)
+    moved = 0.3 + 0.4 * torch.rand(1, 3, 6, 8, generator=g)
+    motion = torch.zeros(1, 2, 6, 8)
+    motion[..., 4:] = 1.0  # one LR pixel (two HR pixels) on the right half, still on the left
+    inputs = taau.taau_inputs(moved, torch.full((1, 2), 0.25), motion, torch.zeros(1), state, 2, params)
+    neutral, _ = taau.blend(inputs, params)
+    less = torch.zeros(1, 6, 12, 16)
+    less[:, 0] = -50.0
+    faded = build_model(NTAAUConfig(history_gain_min=1.0, still_motion_px=1.0)).taau_accumulate(inputs, less)[0]
+    unfloored = build_model(NTAAUConfig(history_gain_min=0.0)).taau_accumulate(inputs, less)[0]
+    torch.testing.assert_close(faded[..., :4], neutral[..., :4], atol=0, rtol=0)  # still, away from the motion's edge
+    torch.testing.assert_close(faded[..., 12:], unfloored[..., 12:], atol=0, rtol=0)
+    assert (faded[..., 12:] - neutral[..., 12:]).abs().max() > 0.01
+
+
 def test_the_correction_stays_out_of_the_history():
     """The correction changes the displayed frame only: the next history is the blend of the same
     gains and box without it, so a correction cannot build up over frames on a static camera."""

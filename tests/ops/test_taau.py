@@ -52,8 +52,10 @@ def test_each_step_matches_the_reference(scale):
         np.testing.assert_allclose(hwc(got[1]), want[1], atol=1e-4)  # weights up to 9
 
 
-@pytest.mark.parametrize("channels", [6, 8])  # 8: with the display filter
-def test_a_steered_sequence_matches_the_reference(channels):
+@pytest.mark.parametrize("channels, still_motion_px", [(6, 0.0), (8, 0.0), (8, 3.0)])  # 8: the display filter
+def test_a_steered_sequence_matches_the_reference(channels, still_motion_px):
+    """With ``still_motion_px`` the floor fades with the motion (about 3 HR pixels here, so pixels
+    fall on both sides)."""
     rng = np.random.default_rng(7)
     scale, h, w, bound, gain_min, filter_bound = 2, 6, 8, 0.1, 0.75, 0.2  # raw ~ N(0, 2): gains on both sides of the floor
     params = torch_taau.TAAUParams()
@@ -64,15 +66,20 @@ def test_a_steered_sequence_matches_the_reference(channels):
         raw = rng.normal(0, 2, (h * scale, w * scale, channels)).astype(np.float32)
         inputs = torch_taau.taau_inputs(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.tensor([float(reset)]),
                                         state, scale, params)
-        out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound, gain_min, filter_bound))
+        floor = torch_taau.history_floor(inputs.motion_px, gain_min, still_motion_px)
+        out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound, floor, filter_bound))
 
         terms = taau.current_terms(colour, jitter, scale, params.sample_sigma)
         if ref_history is None:
             history, weight = terms[2], np.zeros_like(terms[2][..., :1])  # the bicubic frame, no weight
         else:
             history, weight = taau.reprojected_history(ref_history, ref_weight, motion, reset, scale)
+        ref_floor = taau.history_floor(taau.motion_length(motion, scale), gain_min, still_motion_px)
+        if still_motion_px:
+            np.testing.assert_allclose(hwc(floor), ref_floor, atol=1e-5)
+            assert 0.0 < ref_floor.mean() < gain_min
         ref_out, ref_history, ref_weight = taau.blend(*terms, history, weight, params.prior_weight, params.max_weight,
-                                                      taau.steer_from_raw(raw, bound, gain_min, filter_bound))
+                                                      taau.steer_from_raw(raw, bound, ref_floor, filter_bound))
         np.testing.assert_allclose(hwc(out), ref_out, atol=1e-4)
         np.testing.assert_allclose(hwc(state["history"]), ref_history, atol=1e-4)
         np.testing.assert_allclose(hwc(state["weight"]), ref_weight, atol=1e-4)

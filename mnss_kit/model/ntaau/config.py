@@ -24,6 +24,10 @@ class NTAAUConfig:
     # 1: the net may trust the history more than TAAU does but never less; it rejects history only
     # by narrowing the clamp box, as TAAU does (0: the gain spans (0, 2))
     history_gain_min: float = 0.0
+    # > 0: the floor holds only where the surface moved less than this many HR pixels since the
+    # last frame, fading linearly to none at it (a moving history is soft, and the net may trust it
+    # less than TAAU there); 0: everywhere
+    still_motion_px: float = 0.0
     # > 0: the net also steers a 3x3 filter of the displayed frame (model.taau.display_filter), each
     # of its two weights (axis and diagonal neighbours) at most this; 0: no filter (6 channels)
     filter_bound: float = 0.0
@@ -38,6 +42,8 @@ class NTAAUConfig:
             raise ValueError(f"correction_bound must be in [0, 0.5], got {self.correction_bound}")
         if not 0.0 <= self.history_gain_min <= 1.0:
             raise ValueError(f"history_gain_min must be in [0, 1], got {self.history_gain_min}")
+        if self.still_motion_px < 0.0:
+            raise ValueError(f"still_motion_px must be >= 0, got {self.still_motion_px}")
         if not 0.0 <= self.filter_bound <= 0.25:
             raise ValueError(f"filter_bound must be in [0, 0.25], got {self.filter_bound}")
 

@@ -16,8 +16,14 @@ def fixed_macs(c) -> dict[str, float]:
     return {
         "taau_gather": reproject + samples + 3 * BICUBIC + 9 + 9 * 3 * 2 * lr + 3 + 6 + 3,  # bicubic, YCoCg, box, features
         "steer": 0.0,
-        "taau_accumulate": 6 * TRANSCENDENTAL + 3 * 4 + 6 + 3 * 3 + 4 + 6 + display_filter(c),  # activations, box, clamp,
-    }                                                                                            # blend, RGB, filter
+        # activations, box, clamp, blend, RGB; the motion-dependent floor, the display filter
+        "taau_accumulate": 6 * TRANSCENDENTAL + 3 * 4 + 6 + 3 * 3 + 4 + 6 + history_floor(c) + display_filter(c),
+    }
+
+
+def history_floor(c) -> float:
+    """The floor's fade: the HR motion at the pixel (bilinear, 2 channels), its length, the ramp."""
+    return 2 * BILINEAR + 2 + TRANSCENDENTAL + 2 if c.still_motion_px > 0 else 0.0
 
 
 def display_filter(c) -> float:

@@ -39,7 +39,7 @@ from torch import nn
 
 from ..blocks import conv_stack
 from ..family import check_frame
-from ..taau import TAAUInputs, TAAUParams, blend, steer_from_raw, taau_inputs
+from ..taau import TAAUInputs, TAAUParams, blend, history_floor, steer_from_raw, taau_inputs
 from .config import NTAAUConfig
 
 STAGE_ORDER = ("taau_gather", "steer", "taau_accumulate")
@@ -92,7 +92,8 @@ class Accumulate(nn.Module):
 
     def forward(self, inputs: TAAUInputs, raw):
         c = self.config
-        return blend(inputs, self.params, steer_from_raw(raw, c.correction_bound, c.history_gain_min, c.filter_bound))
+        floor = history_floor(inputs.motion_px, c.history_gain_min, c.still_motion_px)
+        return blend(inputs, self.params, steer_from_raw(raw, c.correction_bound, floor, c.filter_bound))
 
 
 class NTAAU(nn.Module):

@@ -99,6 +99,14 @@ float filter_weight_from_raw(float raw, float filter_bound) {
     return filter_bound * tanh(raw);
 }
 
+// The least history gain at a texel whose HR motion has length `motion_px` (ops.taau.history_floor).
+float history_floor(float motion_px, float history_gain_min, float still_motion_px) {
+    if (still_motion_px <= 0.0) {
+        return history_gain_min;
+    }
+    return history_gain_min * clamp(1.0 - motion_px / still_motion_px, 0.0, 1.0);
+}
+
 Steer steer_from_raw(float raw[6], float correction_bound, float history_gain_min) {
     Steer s;
     s.history_gain = max(2.0 / (1.0 + exp(-raw[0])), history_gain_min);

@@ -4,6 +4,7 @@
 //                                    output (the first six here; two more steer taau_filter_pass)
 //        color        LR rgba16f     jittered LR colour, display values
 //        reprojected  HR rgba16f     taau_reproject_pass
+//        motion       LR rg32f       LR motion (the history-gain floor holds where it is small)
 //   out  history      HR rgba16f     the blend before the correction (rgb) and its accumulated weight (a)
 //        display      HR rgba8       the corrected output as 8-bit display codes (taau_filter_pass
 //                                    replaces it in models with a display filter)
@@ -17,6 +18,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 0) readonly buffer NpuOutput { uint npu_output[]; };
 layout(binding = 0) uniform highp sampler2D color;
 layout(binding = 1) uniform highp sampler2D reprojected;
+layout(binding = 2) uniform highp sampler2D motion;
 layout(rgba16f, binding = 0) uniform writeonly highp image2D history;
 layout(rgba8, binding = 1) uniform writeonly highp image2D display;
 
@@ -27,6 +29,7 @@ uniform float u_q_scale;
 uniform int u_q_zero_point;
 uniform float u_correction_bound;
 uniform float u_history_gain_min;
+uniform float u_still_motion_px;
 uniform float u_sample_sigma;
 uniform float u_prior_weight;
 uniform float u_max_weight;
@@ -47,7 +50,8 @@ void main() {
     }
     Neighbourhood n = neighbourhood_at(color, hr, u_jitter, u_scale, u_sample_sigma);
     vec3 spatial = spatial_at(color, hr, u_jitter, u_scale);
-    Blended b = steered_blend(n, spatial, texelFetch(reprojected, hr, 0), steer_from_raw(raw, u_correction_bound, u_history_gain_min),
+    float floor_gain = history_floor(length(upsampled_motion_at(motion, hr, u_scale)), u_history_gain_min, u_still_motion_px);
+    Blended b = steered_blend(n, spatial, texelFetch(reprojected, hr, 0), steer_from_raw(raw, u_correction_bound, floor_gain),
                               u_prior_weight, u_max_weight);
     imageStore(history, hr, round_to_half(b.history));
     imageStore(display, hr, encode_unorm8(vec4(b.display, 1.0)));
