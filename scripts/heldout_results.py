@@ -52,9 +52,10 @@ INT8_PSNR_DB, INT8_IF_SSIM = 0.1, 0.001
 
 
 def evaluate_entry(models: list[str], data: Path, crops: Path | None, int8: bool) -> dict:
+    from mnss_kit.bench.emulated import bundle_method
     from mnss_kit.bench.run import export_at_size, quality_table
     from mnss_kit.eval.baselines import baseline_methods
-    from mnss_kit.eval.methods import bundle_method, model_method
+    from mnss_kit.eval.methods import model_method
     from mnss_kit.eval.run import evaluate
     from mnss_kit.model.checkpoint import load
 

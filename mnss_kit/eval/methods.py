@@ -4,8 +4,6 @@
 ``no_history_method``  the same weights with history ignored: every frame is
                        a reset, so the model sees only the current LR frame
                        (the single-frame ablation).
-``bundle_method``      a deployment bundle through the emulator (the int8 model
-                       as the phone runs it).
 ``default_methods``    model, model_nohist and the baselines, in that order.
 """
 
@@ -52,23 +50,3 @@ def default_methods(model: torch.nn.Module | None, scale: int) -> dict[str, Meth
         methods["model_nohist"] = no_history_method(model)
     methods.update(baseline_methods(scale))
     return methods
-
-
-def bundle_method(bundle, npu_profile: str = "tflite-ref") -> Method:
-    """A deployment bundle through the desktop emulator (numpy GPU passes, ``npu_profile``'s NPU
-    numerics): the int8 model as the phone runs it, scored like any other method.  The state is
-    the emulator's own; ``None`` starts a sequence."""
-    from ..emulate.frame_loop import Emulator
-
-    emulator = Emulator(bundle, npu_profile)
-    inputs = emulator.runner.inputs
-
-    def run(frame: dict, state):
-        if state is None:
-            emulator.reset()
-        arrays = {k: frame[k][0].permute(1, 2, 0).numpy() for k in inputs}
-        result = emulator.run_frame({**arrays, "jitter": frame["jitter"][0].numpy(), "reset": bool(frame["reset"][0] > 0.5)})
-        display = torch.from_numpy(result.display.astype(np.float32) / 255.0).permute(2, 0, 1)[None]
-        return display, {}, emulator
-
-    return run

@@ -194,11 +194,11 @@ def test_emulate_cli_runs_a_sequence(bundle, chain, tmp_path):
 
 
 def test_the_bundle_is_scored_as_an_eval_method(bundle, chain):
-    """``eval.methods.bundle_method``: the emulated int8 frames scored by the evaluation loop give
+    """``bench.emulated.bundle_method``: the emulated int8 frames scored by the evaluation loop give
     the PSNR the emulator reports for the same frames."""
     from mnss_kit.emulate.frame_loop import Emulator
     from mnss_kit.emulate.sequence import run_dataset
-    from mnss_kit.eval.methods import bundle_method
+    from mnss_kit.bench.emulated import bundle_method
     from mnss_kit.eval.run import evaluate
 
     result = evaluate({"int8": bundle_method(bundle)}, chain["data"], max_frames=2, progress=False)
