@@ -1,0 +1,59 @@
+"""scripts/heldout_results.py's documents: the targets name each miss with its numbers, and the
+README's mean-PSNR table is replaced between its markers, the text around it kept."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "heldout_results.py"
+
+
+@pytest.fixture(scope="module")
+def script():
+    spec = importlib.util.spec_from_file_location("heldout_results", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def quality(psnr: float, if_ssim: float = 0.99) -> dict:
+    return {"psnr": psnr, "ssim": 0.95, "if_ssim": if_ssim, "temporal_error": 0.01, "phase_offset": 0.1}
+
+
+def results() -> dict:
+    per = {"seq_a": {"net": quality(31.0), "fast": quality(30.6), "taau": quality(30.0), "bicubic": quality(29.0)},
+           "seq_b": {"net": quality(32.0, 0.98), "fast": quality(31.5), "taau": quality(31.5, 0.985), "bicubic": quality(30.0)}}
+    means = {"net": quality(31.5), "fast": quality(31.05), "taau": quality(30.75), "bicubic": quality(29.5)}
+    return {"labels": ["net", "fast"], "frames": 4, "sets": {"unseen_x2": {"mnss": {"methods": means, "sequences": per}}}}
+
+
+def test_checks_state_each_target_with_its_numbers(script):
+    lines = script.checks(results())
+    assert lines[0].startswith("- `unseen_x2` / mnss: net 31.50 dB, TAAU 30.75 (+0.75, target +1.0: missed)")
+    assert "seq_b (if_ssim 0.98 < 0.985)" in lines[0]
+    assert "over bicubic +2.00 dB (target +4.0: missed)" in lines[1]
+    assert "fast fast 31.05 dB against TAAU 30.75 (beats it)" in lines[2]
+
+
+def test_the_readme_table_is_replaced_between_its_markers(script, tmp_path, monkeypatch):
+    readme = tmp_path / "README.md"
+    start, end = script.README_BLOCK
+    readme.write_text(f"intro\n\n{start}\n| old | table |\n{end}\n\nafter\n")
+    monkeypatch.setattr(script, "README", readme)
+    script.update_readme(results())
+    text = readme.read_text()
+    assert "| old | table |" not in text
+    assert text.startswith("intro\n\n" + start + "\n| set / inputs | `net` | `fast` | taau | bicubic |")
+    assert "| `unseen_x2`, mnss | 31.50 | 31.05 | 30.75 | 29.50 |\n" + end + "\n\nafter\n" in text
+
+
+def test_a_readme_without_markers_is_left_alone(script, tmp_path, monkeypatch, capsys):
+    readme = tmp_path / "README.md"
+    readme.write_text("no block here\n")
+    monkeypatch.setattr(script, "README", readme)
+    script.update_readme(results())
+    assert readme.read_text() == "no block here\n"
+    assert "no <!-- heldout-means" in capsys.readouterr().err
