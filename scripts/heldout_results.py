@@ -15,7 +15,7 @@ The first model is the candidate default the targets are checked for; the second
 Its int8 is its deployment bundle (exported with calibration on the training data) through the
 emulator (numpy GPU passes, the NPU in LiteRT's reference numerics), measured on the unseen set
 with the MNSS jitter.  Resumable: finished set x variant entries are kept (for the
-same models and frame count).  Every sequence is cut to its first FRAMES frames.
+same checkpoint files and frame count).  Every sequence is cut to its first FRAMES frames.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ sys.path.insert(0, str(REPO))
 
 from mnss_kit.bench.run import model_label  # noqa: E402
 from mnss_kit.eval.variant_sets import VARIANTS, variant_set  # noqa: E402
-from mnss_kit.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, read_json  # noqa: E402
+from mnss_kit.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, read_json, sha256_file  # noqa: E402
 from mnss_kit.zoo import DEFAULT_MODEL  # noqa: E402
 
 RESULTS = REPO / "bench" / "results" / "heldout_results.json"
@@ -74,11 +74,18 @@ def evaluate_entry(models: list[str], data: Path, crops: Path | None, int8: bool
     return quality_table(result, methods)
 
 
-def read_results(models: list[str]) -> dict:
-    """The results so far for ``models`` (empty when the file holds other models or frames)."""
+def checkpoint_digests(models: list[str]) -> list[str]:
+    """Each checkpoint file's sha256: a retrained model under the same name is another model."""
+    from mnss_kit.model.checkpoint import resolve
+
+    return [sha256_file(resolve(m)) for m in models]
+
+
+def read_results(models: list[str], digests: list[str]) -> dict:
+    """The results so far for ``models`` (empty when the file holds other checkpoints or frames)."""
     doc = read_json(RESULTS) if RESULTS.is_file() else {}
-    if doc.get("models") != models or doc.get("frames") != FRAMES:
-        doc = {"models": models, "labels": [model_label(m) for m in models], "frames": FRAMES, "sets": {}}
+    if doc.get("models") != models or doc.get("digests") != digests or doc.get("frames") != FRAMES:
+        doc = {"models": models, "labels": [model_label(m) for m in models], "digests": digests, "frames": FRAMES, "sets": {}}
     return doc
 
 
@@ -92,8 +99,9 @@ def results_lock():
 
 
 def run(models: list[str], sets: list[str]) -> dict:
+    digests = checkpoint_digests(models)
     with results_lock():
-        doc = read_results(models)
+        doc = read_results(models, digests)
         atomic_write_json(RESULTS, doc)
     for config in sets:
         base = SETS[config]
@@ -105,7 +113,7 @@ def run(models: list[str], sets: list[str]) -> dict:
             crops = CROPS / config if variant == "mnss" else None
             entry = evaluate_entry(models, data, crops, int8=config == "unseen_x2" and variant == "mnss")
             with results_lock():
-                doc = read_results(models)
+                doc = read_results(models, digests)
                 doc["sets"].setdefault(config, {})[variant] = entry
                 atomic_write_json(RESULTS, doc)
     return doc

@@ -57,3 +57,11 @@ def test_a_readme_without_markers_is_left_alone(script, tmp_path, monkeypatch, c
     script.update_readme(results())
     assert readme.read_text() == "no block here\n"
     assert "no <!-- heldout-means" in capsys.readouterr().err
+
+
+def test_results_of_another_checkpoint_under_the_same_name_are_dropped(script, tmp_path, monkeypatch):
+    monkeypatch.setattr(script, "RESULTS", tmp_path / "heldout_results.json")
+    doc = dict(results(), models=["net", "fast"], digests=["a1", "b1"], frames=script.FRAMES)
+    script.atomic_write_json(script.RESULTS, doc)
+    assert script.read_results(["net", "fast"], ["a1", "b1"])["sets"] == doc["sets"]
+    assert script.read_results(["net", "fast"], ["a2", "b1"])["sets"] == {}
