@@ -120,8 +120,10 @@ def run(models: list[str], sets: list[str]) -> dict:
 
 
 def in_order(doc: dict) -> list[tuple[str, dict]]:
-    """The results' sets in the order of SETS, whichever process finished first."""
-    return [(config, doc["sets"][config]) for config in SETS if config in doc["sets"]]
+    """The results' sets in the order of SETS and their variants in the order of SHOWN, whichever
+    process or entry finished first."""
+    return [(config, {v: doc["sets"][config][v] for v in SHOWN if v in doc["sets"][config]})
+            for config in SETS if config in doc["sets"]]
 
 
 def checks(doc: dict) -> list[str]:
