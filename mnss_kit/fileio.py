@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import fcntl
 import hashlib
 import json
 import logging
@@ -229,6 +230,28 @@ def json_text(obj) -> str:
 
 def atomic_write_json(path: str | os.PathLike, obj) -> Path:
     return atomic_write_text(path, json_text(obj))
+
+
+def file_lock(path: str | os.PathLike, waiting: str | None = None) -> contextlib.AbstractContextManager:
+    """An exclusive lock on ``path`` (created if missing) held for a ``with`` block; the system
+    releases it if the process dies.  ``waiting`` is logged when another process holds it.  The
+    file is opened here, so a place that cannot hold it fails (OSError) before the block."""
+    return _held(open(path, "a"), waiting)
+
+
+@contextlib.contextmanager
+def _held(handle, waiting: str | None) -> Iterator[None]:
+    with handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            if waiting:
+                log.info("%s", waiting)
+            fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 @contextlib.contextmanager

@@ -21,8 +21,6 @@ same checkpoint files and frame count).  Every sequence is cut to its first FRAM
 from __future__ import annotations
 
 import argparse
-import contextlib
-import fcntl
 import sys
 from pathlib import Path
 
@@ -31,7 +29,7 @@ sys.path.insert(0, str(REPO))
 
 from mnss_kit.bench.run import model_label  # noqa: E402
 from mnss_kit.eval.variant_sets import VARIANTS, variant_set  # noqa: E402
-from mnss_kit.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, read_json, sha256_file  # noqa: E402
+from mnss_kit.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, file_lock, read_json, sha256_file  # noqa: E402
 from mnss_kit.zoo import DEFAULT_MODEL  # noqa: E402
 
 RESULTS = REPO / "bench" / "results" / "heldout_results.json"
@@ -89,13 +87,10 @@ def read_results(models: list[str], digests: list[str]) -> dict:
     return doc
 
 
-@contextlib.contextmanager
 def results_lock():
     """Held while the results file is read, changed and written: processes running other sets add to it."""
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    with open(RESULTS.with_suffix(".lock"), "a") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        yield
+    return file_lock(RESULTS.with_suffix(".lock"))
 
 
 def run(models: list[str], sets: list[str]) -> dict:

@@ -18,8 +18,6 @@ on the same data decode it once: the second waits and then finds it built.
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import hashlib
 import logging
 import os
@@ -30,7 +28,7 @@ from typing import Iterable
 import numpy as np
 
 from ..errors import UserError
-from ..fileio import atomic_output_path, remove_stale_leftovers
+from ..fileio import atomic_output_path, file_lock, remove_stale_leftovers
 from .format import BUFFERS, META_FILE, SequenceMeta, buffer_path, find_sequences, read_buffer, read_meta
 
 log = logging.getLogger(__name__)
@@ -211,29 +209,12 @@ def prepare_caches(
     return caches
 
 
-@contextlib.contextmanager
 def _build_lock(cache_root: Path):
     """An exclusive lock on ``cache_root`` for the duration of a build (released if the process dies)."""
     try:
-        handle = open(cache_root / ".build.lock", "a")
+        return file_lock(cache_root / ".build.lock", f"waiting for another process building the dataset cache in {cache_root}")
     except OSError as e:
         raise UserError(f"cannot write the dataset cache in {cache_root} ({e.strerror}); choose another with --cache-dir") from None
-    with handle:
-        if not _try_lock(handle):
-            log.info("waiting for another process building the dataset cache in %s", cache_root)
-            fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
-
-
-def _try_lock(handle) -> bool:
-    try:
-        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        return True
-    except BlockingIOError:
-        return False
 
 
 def _build(todo: list[tuple[SequenceCache, str, str]], cache_root: Path, progress: bool) -> None:
