@@ -172,7 +172,7 @@ class ReferencePasses:
         raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0, ..., :6]
         terms = taau.current_terms(to_half(color), as_jitter(jitter), scale, sample_sigma)
         r = to_half(reprojected)
-        floor = taau.history_floor(taau.motion_length(motion, scale), history_gain_min, still_motion_px)
+        floor = taau.history_floor(motion, scale, history_gain_min, still_motion_px)
         output, history, weight = taau.blend(*terms, r[..., :3], r[..., 3:], prior_weight, max_weight,
                                              taau.steer_from_raw(raw, correction_bound, floor))
         return to_half(np.concatenate([history, weight], axis=-1)), encode_unorm8(output)

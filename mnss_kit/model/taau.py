@@ -72,12 +72,13 @@ class Steer:
 NEUTRAL = Steer()
 
 
-def history_floor(motion_px: torch.Tensor, history_gain_min: float, still_motion_px: float) -> torch.Tensor | float:
+def history_floor(motion: torch.Tensor, scale: int, history_gain_min: float, still_motion_px: float) -> torch.Tensor | float:
     """The least history gain per HR pixel (``ops.taau.history_floor``): ``history_gain_min`` where
     the surface moved less than ``still_motion_px`` HR pixels, fading linearly to 0 at that motion
-    (everywhere when ``still_motion_px`` is 0).  ``motion_px`` (N, 1, H, W): the HR motion's length."""
+    (everywhere when ``still_motion_px`` is 0: the motion is then not read).  ``motion`` (N, 2, h, w) LR."""
     if still_motion_px <= 0.0:
         return history_gain_min
+    motion_px = upsample_motion(motion, scale).norm(dim=1, keepdim=True)
     return history_gain_min * (1.0 - motion_px / still_motion_px).clamp(0.0, 1.0)
 
 
@@ -212,7 +213,7 @@ class TAAUInputs:
     hi: torch.Tensor
     history: torch.Tensor  # (N, 3, H, W) reprojected, not clamped
     history_weight: torch.Tensor  # (N, 1, H, W)
-    motion_px: torch.Tensor  # (N, 1, H, W) the length of the HR motion, HR pixels
+    motion: torch.Tensor  # (N, 2, h, w) the LR motion, for the history floor
 
 
 def taau_inputs(color: torch.Tensor, jitter: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor, state: dict | None,
@@ -226,8 +227,7 @@ def taau_inputs(color: torch.Tensor, jitter: torch.Tensor, motion: torch.Tensor,
         history, weight = spatial, torch.zeros_like(spatial[:, :1])
     else:
         history, weight = reprojected_history(state["history"], state["weight"], motion, reset, scale, params)
-    motion_px = upsample_motion(motion, scale).norm(dim=1, keepdim=True)
-    return TAAUInputs(samples, sample_weight, spatial, lo, hi, history, weight, motion_px)
+    return TAAUInputs(samples, sample_weight, spatial, lo, hi, history, weight, motion)
 
 
 def display_filter(image: torch.Tensor, axis: torch.Tensor | float, diagonal: torch.Tensor | float) -> torch.Tensor:

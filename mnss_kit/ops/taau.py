@@ -156,13 +156,15 @@ class Steer:
     filter_diagonal: np.ndarray | float = 0.0
 
 
-def history_floor(motion_px: np.ndarray, history_gain_min: float, still_motion_px: float):
+def history_floor(motion: np.ndarray, scale: int, history_gain_min: float, still_motion_px: float):
     """The least history gain per HR pixel: ``history_gain_min`` where the surface moved less than
-    ``still_motion_px`` HR pixels (``motion_px`` (H, W, 1), the HR motion's length), fading linearly
-    to 0 at that motion; ``history_gain_min`` everywhere when ``still_motion_px`` is 0."""
+    ``still_motion_px`` HR pixels, fading linearly to 0 at that motion (the length of the HR motion
+    upsampled from the LR ``motion`` (h, w, 2)); ``history_gain_min`` everywhere when
+    ``still_motion_px`` is 0, the motion then not read."""
     if still_motion_px <= 0.0:
         return np.float32(history_gain_min)
-    return (np.float32(history_gain_min) * np.clip(1.0 - motion_px / np.float32(still_motion_px), 0.0, 1.0)).astype(np.float32)
+    ramp = np.clip(1.0 - motion_length(motion, scale) / np.float32(still_motion_px), 0.0, 1.0)
+    return (np.float32(history_gain_min) * ramp).astype(np.float32)
 
 
 def motion_length(motion: np.ndarray, scale: int) -> np.ndarray:

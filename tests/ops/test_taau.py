@@ -66,7 +66,7 @@ def test_a_steered_sequence_matches_the_reference(channels, still_motion_px):
         raw = rng.normal(0, 2, (h * scale, w * scale, channels)).astype(np.float32)
         inputs = torch_taau.taau_inputs(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.tensor([float(reset)]),
                                         state, scale, params)
-        floor = torch_taau.history_floor(inputs.motion_px, gain_min, still_motion_px)
+        floor = torch_taau.history_floor(inputs.motion, scale, gain_min, still_motion_px)
         out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound, floor, filter_bound))
 
         terms = taau.current_terms(colour, jitter, scale, params.sample_sigma)
@@ -74,7 +74,7 @@ def test_a_steered_sequence_matches_the_reference(channels, still_motion_px):
             history, weight = terms[2], np.zeros_like(terms[2][..., :1])  # the bicubic frame, no weight
         else:
             history, weight = taau.reprojected_history(ref_history, ref_weight, motion, reset, scale)
-        ref_floor = taau.history_floor(taau.motion_length(motion, scale), gain_min, still_motion_px)
+        ref_floor = taau.history_floor(motion, scale, gain_min, still_motion_px)
         if still_motion_px:
             np.testing.assert_allclose(hwc(floor), ref_floor, atol=1e-5)
             assert 0.0 < ref_floor.mean() < gain_min

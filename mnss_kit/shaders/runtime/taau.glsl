@@ -99,11 +99,13 @@ float filter_weight_from_raw(float raw, float filter_bound) {
     return filter_bound * tanh(raw);
 }
 
-// The least history gain at a texel whose HR motion has length `motion_px` (ops.taau.history_floor).
-float history_floor(float motion_px, float history_gain_min, float still_motion_px) {
+// The least history gain at HR texel `hr` (ops.taau.history_floor); the motion is read only when
+// the floor fades with it.
+float history_floor(highp sampler2D motion, ivec2 hr, int scale, float history_gain_min, float still_motion_px) {
     if (still_motion_px <= 0.0) {
         return history_gain_min;
     }
+    float motion_px = length(upsampled_motion_at(motion, hr, scale));
     return history_gain_min * clamp(1.0 - motion_px / still_motion_px, 0.0, 1.0);
 }
 

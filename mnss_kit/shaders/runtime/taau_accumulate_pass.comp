@@ -50,7 +50,7 @@ void main() {
     }
     Neighbourhood n = neighbourhood_at(color, hr, u_jitter, u_scale, u_sample_sigma);
     vec3 spatial = spatial_at(color, hr, u_jitter, u_scale);
-    float floor_gain = history_floor(length(upsampled_motion_at(motion, hr, u_scale)), u_history_gain_min, u_still_motion_px);
+    float floor_gain = history_floor(motion, hr, u_scale, u_history_gain_min, u_still_motion_px);
     Blended b = steered_blend(n, spatial, texelFetch(reprojected, hr, 0), steer_from_raw(raw, u_correction_bound, floor_gain),
                               u_prior_weight, u_max_weight);
     imageStore(history, hr, round_to_half(b.history));
