@@ -65,3 +65,15 @@ def test_results_of_another_checkpoint_under_the_same_name_are_dropped(script, t
     script.atomic_write_json(script.RESULTS, doc)
     assert script.read_results(["net", "fast"], ["a1", "b1"])["sets"] == doc["sets"]
     assert script.read_results(["net", "fast"], ["a2", "b1"])["sets"] == {}
+
+
+def test_the_doc_shows_the_reference_steadiness_where_measured(script, monkeypatch):
+    doc = results()
+    doc["sets"]["unseen_x2"]["mnss"]["reference_if_ssim"] = {"seq_a": 0.9971}
+    written = {}
+    monkeypatch.setattr(script, "atomic_write_text", lambda path, text: written.setdefault("text", text))
+    monkeypatch.setattr(script, "shown_crops", lambda doc: {})
+    script.write_doc(doc)
+    text = written["text"]
+    assert "| seq_a | 31.00 / 0.9900 | 30.60 / 0.9900 | 30.00 / 0.9900 | 29.00 / 0.9900 | 0.9971 |" in text
+    assert "| seq_b | 32.00 / 0.9800 | 31.50 / 0.9900 | 31.50 / 0.9850 | 30.00 / 0.9900 |  |" in text
