@@ -77,3 +77,9 @@ def test_the_doc_shows_the_reference_steadiness_where_measured(script, monkeypat
     text = written["text"]
     assert "| seq_a | 31.00 / 0.9900 | 30.60 / 0.9900 | 30.00 / 0.9900 | 29.00 / 0.9900 | 0.9971 |" in text
     assert "| seq_b | 32.00 / 0.9800 | 31.50 / 0.9900 | 31.50 / 0.9850 | 30.00 / 0.9900 |  |" in text
+
+
+def test_a_miss_is_not_rounded_up_to_its_target(script):
+    assert script._margin(0.9991, 1.0) == "+0.999"
+    assert script._margin(1.004, 1.0) == "+1.00"
+    assert script._margin(0.75, 1.0) == "+0.75"
