@@ -72,13 +72,13 @@ class Steer:
 NEUTRAL = Steer()
 
 
-def history_floor(motion: torch.Tensor, scale: int, history_gain_min: float, still_motion_px: float) -> torch.Tensor | float:
+def history_floor(hr_motion: torch.Tensor, history_gain_min: float, still_motion_px: float) -> torch.Tensor | float:
     """The least history gain per HR pixel (``ops.taau.history_floor``): ``history_gain_min`` where
     the surface moved less than ``still_motion_px`` HR pixels, fading linearly to 0 at that motion
-    (everywhere when ``still_motion_px`` is 0: the motion is then not read).  ``motion`` (N, 2, h, w) LR."""
+    (everywhere when ``still_motion_px`` is 0: the motion is then not read).  ``hr_motion`` (N, 2, H, W)."""
     if still_motion_px <= 0.0:
         return history_gain_min
-    motion_px = upsample_motion(motion, scale).norm(dim=1, keepdim=True)
+    motion_px = hr_motion.norm(dim=1, keepdim=True)
     return history_gain_min * (1.0 - motion_px / still_motion_px).clamp(0.0, 1.0)
 
 
@@ -186,13 +186,12 @@ def undo_bilinear_blur(image: torch.Tensor, spread: torch.Tensor) -> torch.Tenso
     return image - 0.5 * (spread[:, :1] * dxx + spread[:, 1:] * dyy)
 
 
-def reprojected_history(history: torch.Tensor, weight: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor,
-                        scale: int, params: TAAUParams) -> tuple[torch.Tensor, torch.Tensor]:
+def reprojected_history(history: torch.Tensor, weight: torch.Tensor, hr_motion: torch.Tensor, reset: torch.Tensor,
+                        params: TAAUParams) -> tuple[torch.Tensor, torch.Tensor]:
     """The previous output ``history`` (N, 3, H, W) RGB and its weight (N, 1, H, W), warped to this
-    frame by the LR ``motion``: colour in YCoCg, weight zero after a reset (``reset`` (N,) > 0.5)
-    and where the motion points off-screen."""
+    frame by ``hr_motion`` (N, 2, H, W, the upsampled motion): colour in YCoCg, weight zero after a
+    reset (``reset`` (N,) > 0.5) and where the motion points off-screen."""
     n = history.shape[0]
-    hr_motion = upsample_motion(motion, scale)
     warped = warp_bilinear(torch.cat([history, weight], dim=1), hr_motion)
     frac = hr_motion - torch.floor(hr_motion)
     spread = frac * (1.0 - frac)
@@ -213,7 +212,7 @@ class TAAUInputs:
     hi: torch.Tensor
     history: torch.Tensor  # (N, 3, H, W) reprojected, not clamped
     history_weight: torch.Tensor  # (N, 1, H, W)
-    motion: torch.Tensor  # (N, 2, h, w) the LR motion, for the history floor
+    hr_motion: torch.Tensor  # (N, 2, H, W) the motion upsampled once, for reprojection and the history floor
 
 
 def taau_inputs(color: torch.Tensor, jitter: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor, state: dict | None,
@@ -223,11 +222,12 @@ def taau_inputs(color: torch.Tensor, jitter: torch.Tensor, motion: torch.Tensor,
     samples, sample_weight = nearby_samples(current, jitter, scale, params.sample_sigma)
     spatial = rgb_to_ycocg(bicubic_upsample(color, jitter, scale))
     lo, hi = neighbourhood_box(current, scale, params)
+    hr_motion = upsample_motion(motion, scale)
     if state is None:
         history, weight = spatial, torch.zeros_like(spatial[:, :1])
     else:
-        history, weight = reprojected_history(state["history"], state["weight"], motion, reset, scale, params)
-    return TAAUInputs(samples, sample_weight, spatial, lo, hi, history, weight, motion)
+        history, weight = reprojected_history(state["history"], state["weight"], hr_motion, reset, params)
+    return TAAUInputs(samples, sample_weight, spatial, lo, hi, history, weight, hr_motion)
 
 
 def display_filter(image: torch.Tensor, axis: torch.Tensor | float, diagonal: torch.Tensor | float) -> torch.Tensor:

@@ -46,7 +46,8 @@ def test_each_step_matches_the_reference(scale):
     history = rng.uniform(0, 1, (7 * scale, 9 * scale, 3)).astype(np.float32)
     hist_weight = rng.uniform(0, 9, (7 * scale, 9 * scale, 1)).astype(np.float32)
     for reset in (False, True):
-        got = torch_taau.reprojected_history(nchw(history), nchw(hist_weight), nchw(motion), torch.tensor([float(reset)]), scale, params)
+        got = torch_taau.reprojected_history(nchw(history), nchw(hist_weight), torch_taau.upsample_motion(nchw(motion), scale),
+                                             torch.tensor([float(reset)]), params)
         want = taau.reprojected_history(history, hist_weight, motion, reset, scale)
         np.testing.assert_allclose(hwc(got[0]), want[0], atol=TOLERANCE)
         np.testing.assert_allclose(hwc(got[1]), want[1], atol=1e-4)  # weights up to 9
@@ -66,7 +67,7 @@ def test_a_steered_sequence_matches_the_reference(channels, still_motion_px):
         raw = rng.normal(0, 2, (h * scale, w * scale, channels)).astype(np.float32)
         inputs = torch_taau.taau_inputs(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.tensor([float(reset)]),
                                         state, scale, params)
-        floor = torch_taau.history_floor(inputs.motion, scale, gain_min, still_motion_px)
+        floor = torch_taau.history_floor(inputs.hr_motion, gain_min, still_motion_px)
         out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound, floor, filter_bound))
 
         terms = taau.current_terms(colour, jitter, scale, params.sample_sigma)

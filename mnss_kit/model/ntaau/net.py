@@ -92,7 +92,7 @@ class Accumulate(nn.Module):
 
     def forward(self, inputs: TAAUInputs, raw):
         c = self.config
-        floor = history_floor(inputs.motion, c.scale, c.history_gain_min, c.still_motion_px)
+        floor = history_floor(inputs.hr_motion, c.history_gain_min, c.still_motion_px)
         return blend(inputs, self.params, steer_from_raw(raw, c.correction_bound, floor, c.filter_bound))
 
 
