@@ -67,6 +67,9 @@ class TrainConfig:
     log_dir: str | None = None  # TensorBoard directory; default OUT/logs
     time_budget_min: float | None = None  # stop cleanly (final checkpoint) after this much time
     augment: dict[str, float] = field(default_factory=dict)  # augmentation -> probability per training window (dataset/augment.py)
+    # weights a new run starts from (a shipped name or a .pt path; ``--init`` wins): a fine-tune
+    # config names the run it continues, so the whole recipe lives in configs
+    init: str | None = None
 
     def __post_init__(self):
         positive = ("window", "batch_size", "crop", "epochs", "steps_per_epoch", "checkpoint_every", "log_every", "val_windows")

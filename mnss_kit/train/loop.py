@@ -24,6 +24,7 @@ from torch import nn
 from ..config import to_dict
 from ..errors import UserError
 from ..fileio import remove_stale_leftovers
+from ..model import checkpoint
 from ..model.families import build_model, family_of
 from . import distributed
 from .config import ExperimentConfig, TrainConfig
@@ -62,11 +63,24 @@ def train(experiment: ExperimentConfig, out_dir: str | Path, resume: bool = Fals
     """
     if init and resume:
         raise UserError("--init starts a new run; --resume continues one from its last.pt (use one of them)")
+    if init is None and not resume and experiment.train.init:
+        init = _config_init(experiment.train.init)
     world = distributed.setup()
     try:
         return _train(experiment, Path(out_dir), resume, progress, world, init)
     finally:
         distributed.teardown(world)
+
+
+def _config_init(init: str) -> str:
+    """The config's ``train.init``, checked to exist before any work: a fine-tune config names the
+    run it continues, which the user may not have trained yet."""
+    try:
+        checkpoint.resolve(init)
+    except UserError:
+        raise UserError(f"the config starts from train.init '{init}', which does not exist: train that run first "
+                        "(docs/training.md), or pass --init") from None
+    return init
 
 
 def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: bool, world: distributed.World,

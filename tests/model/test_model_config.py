@@ -1,5 +1,7 @@
 """Model config files: the shipped ladder loads; the model: section is strict, train:/data: are left alone."""
 
+from dataclasses import replace
+
 import pytest
 
 from mnss_kit.errors import UserError
@@ -69,10 +71,29 @@ def test_a_variant_states_only_how_it_differs_from_its_base(tmp_path):
 
 def test_shipped_fast_variant_trains_like_the_default():
     from mnss_kit.train.config import load_experiment
-    default, _ = load_experiment("ntaau_x2")
-    fast, _ = load_experiment("ntaau_x2_fast")
-    assert fast.train == default.train and fast.data == default.data
-    assert fast.model.width < default.model.width
+    names = ("ntaau_x2_base", "ntaau_x2", "ntaau_x2_fast_base", "ntaau_x2_fast")
+    base, default, fast_base, fast = (load_experiment(name)[0] for name in names)
+    assert fast_base.train == base.train and fast_base.data == fast.data == default.data == base.data
+    assert replace(fast.train, init=None) == replace(default.train, init=None)
+    assert fast.model == fast_base.model and fast.model.width < default.model.width
+    assert (default.train.init, fast.train.init) == ("runs/ntaau_x2_base/model.pt", "runs/ntaau_x2_fast_base/model.pt")
+
+
+@pytest.mark.parametrize("name", ["ntaau_x2", "ntaau_x2_fast"])
+def test_shipped_ntaau_checkpoints_were_trained_by_their_configs(name):
+    """The fine-tune config reproduces the shipped record's train section and model (the recipe has one source)."""
+    from mnss_kit.config import to_dict
+    from mnss_kit.model import checkpoint
+    from mnss_kit.train.config import load_experiment
+    from mnss_kit.train.loop import BOOKKEEPING_KEYS
+    experiment, _ = load_experiment(name)
+    record, _ = checkpoint.read_record(name)
+    ours = to_dict(experiment.train)
+    differing = sorted(k for k in ours if k not in BOOKKEEPING_KEYS | {"init"} and record["train"].get(k) != ours[k])
+    assert not differing, differing
+    assert record["config"] == to_dict(experiment.model)
+    base, _ = load_experiment(f"{name}_base")
+    assert record["init"]["config"] == to_dict(base.model)
 
 
 @pytest.mark.parametrize("text, message", [("base: [1]\n", "base"), ("base: m.yaml\n", "loop"), ("base: nowhere\n", "nowhere")])

@@ -53,3 +53,14 @@ def test_another_scale_or_resume_is_refused(write_experiment, tmp_path, capsys):
     path = write_experiment(model=shipped_model_section())
     assert cli.main(["train", str(path), "--out", str(tmp_path / "b"), "--init", SHIPPED, "--resume"]) == 2
     assert "--init starts a new run" in capsys.readouterr().err
+
+
+def test_a_config_names_the_run_it_fine_tunes(write_experiment, tmp_path, capsys):
+    path = write_experiment(model=shipped_model_section(), epochs=1, steps_per_epoch=1, init=SHIPPED)
+    final = train(load_experiment(path)[0], tmp_path / "run", progress=False)
+    assert checkpoint.read_record(final)[0]["init"]["path"] == SHIPPED
+    missing = write_experiment(name="next.yaml", init=str(tmp_path / "base" / "model.pt"))
+    assert cli.main(["train", str(missing), "--out", str(tmp_path / "next")]) == 2
+    err = capsys.readouterr().err
+    assert "train.init" in err and "train that run first" in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "next").exists()
