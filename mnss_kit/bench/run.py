@@ -153,7 +153,7 @@ def run_bench(request: BenchRequest) -> dict:
         records, settings, data, calibration = prepared[scale]
         if name is None:
             new = [] if all(f"{b}/baseline" in records for b in BASELINES) else baseline_records(data, settings)
-        elif all(f"{model_label(name)}/{p}" in records for p in ("fp32", "int8")):
+        elif _benched(records, name):
             continue
         else:
             new = model_records(name, data, calibration, settings, request.work)
@@ -251,6 +251,20 @@ def baseline_records(data: Path, settings: Settings) -> list[dict]:
              "macs_per_pixel": 0.0, "params": 0, "cpu_ms": None, "device_ms": {}} for name in BASELINES]
 
 
+def _benched(records: dict, name: str) -> bool:
+    """Whether ``records`` hold both precisions of checkpoint ``name`` as its file is now: a model
+    retrained under the same name is benched again."""
+    digest = checkpoint_digest(name)
+    return all(records.get(f"{model_label(name)}/{p}", {}).get("checkpoint_sha256") == digest for p in ("fp32", "int8"))
+
+
+def checkpoint_digest(name: str) -> str:
+    from ..fileio import sha256_file
+    from ..model.checkpoint import resolve
+
+    return sha256_file(resolve(name))
+
+
 def model_records(name: str, data: Path, calibration: Path, settings: Settings, work: Path) -> list[dict]:
     """The fp32 and int8 records of one checkpoint."""
     from ..eval.methods import model_method
@@ -270,7 +284,7 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
     latency = npu_latency(model, settings.latency_size, settings.latency_repeats)
     cost = {"macs_per_pixel": macs.total, "npu_macs_per_pixel": macs.by_placement("npu"), "params": macs.params,
             "device_ms": device_estimates(model, settings.devices, settings.latency_size)}
-    common = {"name": label, "family": family.name, "source": str(name), **cost}
+    common = {"name": label, "family": family.name, "source": str(name), "checkpoint_sha256": checkpoint_digest(name), **cost}
     fp32 = {**common, "precision": "fp32", **quality(result["methods"]["fp32"]),
             "cpu_ms": {rt: t["fp32_ms"] for rt, t in latency.items()}}
     int8 = {**common, "precision": "int8", **quality(result["methods"]["int8"]),

@@ -42,10 +42,16 @@ def test_record_schema(changes, problem):
     assert record_problems(broken) == ["missing key 'if_ssim'"]
 
 
+class Calls(list):
+    """The measurements made, in order; ``digests`` stands for the checkpoint files."""
+
+    digests: dict
+
+
 @pytest.fixture
 def fake_measurements(monkeypatch, tmp_path):
     """The bench with data preparation and measurements replaced by counters and fixed records."""
-    calls = []
+    calls = Calls()
     monkeypatch.setattr(bench_run, "_rendered", lambda config, overrides, root, progress: tmp_path / config)
     monkeypatch.setattr(bench_run, "_calibration_data", lambda root, scale, progress: tmp_path / "calibration")
     monkeypatch.setattr(bench_run, "model_scale", lambda name: 4 if name.endswith("_x4") else 2)
@@ -53,13 +59,17 @@ def fake_measurements(monkeypatch, tmp_path):
         good_record(name=b, family="baseline", precision="baseline", macs_per_pixel=0.0, cpu_ms=None, device_ms={})
         for b in bench_run.BASELINES])
 
+    digests = {}  # checkpoint name -> its file's digest; a test retrains a model by changing it
+    monkeypatch.setattr(bench_run, "checkpoint_digest", lambda name: digests.get(name, f"first {name}"))
+
     def model_records(name, data, calibration, settings, work):
         calls.append(name)
         if name == "crash":
             raise KeyboardInterrupt  # a run killed in the middle of a model
-        return [good_record(name=name, precision=p) for p in ("fp32", "int8")]
+        return [good_record(name=name, precision=p, checkpoint_sha256=bench_run.checkpoint_digest(name)) for p in ("fp32", "int8")]
 
     monkeypatch.setattr(bench_run, "model_records", model_records)
+    calls.digests = digests
     return calls
 
 
@@ -77,6 +87,11 @@ def test_a_killed_run_resumes_with_the_records_it_has(fake_measurements, tmp_pat
     doc = bench_run.run_bench(bench_run.BenchRequest(models=["a", "b"], **request))
     assert fake_measurements == ["b"]  # the baselines and model a were kept
     assert _keys(doc) == {"bicubic/baseline", "taau/baseline", "a/fp32", "a/int8", "b/fp32", "b/int8"}
+    fake_measurements.digests["b"] = "retrained b"
+    fake_measurements.clear()
+    doc = bench_run.run_bench(bench_run.BenchRequest(models=["a", "b"], **request))
+    assert fake_measurements == ["b"]  # the same name, another checkpoint file: benched again
+    assert doc["benches"]["x2"]["records"]["b/int8"]["checkpoint_sha256"] == "retrained b"
     fake_measurements.clear()
     bench_run.run_bench(bench_run.BenchRequest(models=["a"], **{**request, "quick": False}))
     assert fake_measurements == ["baselines", "a"]  # other settings: nothing reused
