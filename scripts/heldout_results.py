@@ -29,7 +29,7 @@ sys.path.insert(0, str(REPO))
 
 from mnss_kit.bench.run import model_label  # noqa: E402
 from mnss_kit.eval.variant_sets import VARIANTS, variant_set  # noqa: E402
-from mnss_kit.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, file_lock, read_json, sha256_file  # noqa: E402
+from mnss_kit.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, file_lock, read_json  # noqa: E402
 from mnss_kit.zoo import DEFAULT_MODEL  # noqa: E402
 
 RESULTS = REPO / "bench" / "results" / "heldout_results.json"
@@ -76,9 +76,9 @@ def evaluate_entry(models: list[str], data: Path, crops: Path | None, int8: bool
 
 def checkpoint_digests(models: list[str]) -> list[str]:
     """Each checkpoint file's sha256: a retrained model under the same name is another model."""
-    from mnss_kit.model.checkpoint import resolve
+    from mnss_kit.model.checkpoint import digest
 
-    return [sha256_file(resolve(m)) for m in models]
+    return [digest(m) for m in models]
 
 
 def read_results(models: list[str], digests: list[str]) -> dict:

@@ -254,22 +254,17 @@ def baseline_records(data: Path, settings: Settings) -> list[dict]:
 def _benched(records: dict, name: str) -> bool:
     """Whether ``records`` hold both precisions of checkpoint ``name`` as its file is now: a model
     retrained under the same name is benched again."""
-    digest = checkpoint_digest(name)
+    from ..model import checkpoint
+
+    digest = checkpoint.digest(name)
     return all(records.get(f"{model_label(name)}/{p}", {}).get("checkpoint_sha256") == digest for p in ("fp32", "int8"))
-
-
-def checkpoint_digest(name: str) -> str:
-    from ..fileio import sha256_file
-    from ..model.checkpoint import resolve
-
-    return sha256_file(resolve(name))
 
 
 def model_records(name: str, data: Path, calibration: Path, settings: Settings, work: Path) -> list[dict]:
     """The fp32 and int8 records of one checkpoint."""
     from ..eval.methods import model_method
     from ..eval.run import evaluate
-    from ..model.checkpoint import load
+    from ..model.checkpoint import digest, load
     from ..model.families import family_of
     from ..model.macs import count_macs
     from .latency import npu_latency
@@ -284,7 +279,7 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
     latency = npu_latency(model, settings.latency_size, settings.latency_repeats)
     cost = {"macs_per_pixel": macs.total, "npu_macs_per_pixel": macs.by_placement("npu"), "params": macs.params,
             "device_ms": device_estimates(model, settings.devices, settings.latency_size)}
-    common = {"name": label, "family": family.name, "source": str(name), "checkpoint_sha256": checkpoint_digest(name), **cost}
+    common = {"name": label, "family": family.name, "source": str(name), "checkpoint_sha256": digest(name), **cost}
     fp32 = {**common, "precision": "fp32", **quality(result["methods"]["fp32"]),
             "cpu_ms": {rt: t["fp32_ms"] for rt, t in latency.items()}}
     int8 = {**common, "precision": "int8", **quality(result["methods"]["int8"]),

@@ -162,11 +162,10 @@ def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int) -
 def _check_same_model(report: dict, ckpt: str, directory: str) -> None:
     """The NPU files of a quantize directory hold the weights of the checkpoint they were quantized
     from; a bundle pairing them with another one would run two different models."""
-    from ..fileio import sha256_file
     from ..model import checkpoint
 
     made_from = report["checkpoint"]  # load_quantized_dir checked it records a SHA-256
-    given = sha256_file(checkpoint.resolve(ckpt))
+    given = checkpoint.digest(ckpt)
     if given == made_from["sha256"]:
         return
     then, now = made_from["sha256"][:12], given[:12]

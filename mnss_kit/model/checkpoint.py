@@ -145,12 +145,17 @@ def load(path_or_name: str | Path) -> tuple[nn.Module, dict]:
     return model.eval(), record
 
 
+def digest(path_or_name: str | Path) -> str:
+    """SHA-256 of the checkpoint file: a model retrained under the same name is another model."""
+    return sha256_file(resolve(path_or_name))
+
+
 def identity(path_or_name: str | Path, record: dict) -> dict:
     """What a derived artefact records about the checkpoint it came from: path, SHA-256 of the file,
     family, scale, config and code version (plain data)."""
     return {
         "path": str(path_or_name),
-        "sha256": sha256_file(resolve(path_or_name)),
+        "sha256": digest(path_or_name),
         "family": record.get("family"),
         "scale": record.get("scale"),
         "config": record.get("config"),

@@ -11,6 +11,7 @@ from mnss_kit.bench import run as bench_run
 from mnss_kit.bench.charts import write_charts
 from mnss_kit.bench.pareto import pareto_front
 from mnss_kit.bench.records import record_problems
+from mnss_kit.model import checkpoint
 
 
 def test_pareto_front_keeps_exactly_the_undominated_points():
@@ -60,13 +61,13 @@ def fake_measurements(monkeypatch, tmp_path):
         for b in bench_run.BASELINES])
 
     digests = {}  # checkpoint name -> its file's digest; a test retrains a model by changing it
-    monkeypatch.setattr(bench_run, "checkpoint_digest", lambda name: digests.get(name, f"first {name}"))
+    monkeypatch.setattr("mnss_kit.model.checkpoint.digest", lambda name: digests.get(name, f"first {name}"))
 
     def model_records(name, data, calibration, settings, work):
         calls.append(name)
         if name == "crash":
             raise KeyboardInterrupt  # a run killed in the middle of a model
-        return [good_record(name=name, precision=p, checkpoint_sha256=bench_run.checkpoint_digest(name)) for p in ("fp32", "int8")]
+        return [good_record(name=name, precision=p, checkpoint_sha256=checkpoint.digest(name)) for p in ("fp32", "int8")]
 
     monkeypatch.setattr(bench_run, "model_records", model_records)
     calls.digests = digests
