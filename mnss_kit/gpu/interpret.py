@@ -123,7 +123,7 @@ def _taau_pack(p, c: Call):
 def _taau_accumulate(p, c: Call):
     history, display = p.taau_accumulate(c.read["npu_output"], c.read["color"], c.read["reprojected"], c.read["motion"], c.offset,
                                          c.u("u_scale"), c.u("u_q_scale"), c.u("u_q_zero_point"), c.u("u_correction_bound"),
-                                         c.u("u_history_gain_min"), c.u("u_still_motion_px"), c.u("u_sample_sigma"),
+                                         c.u("u_box_bound"), c.u("u_history_gain_min"), c.u("u_still_motion_px"), c.u("u_sample_sigma"),
                                          c.u("u_prior_weight"), c.u("u_max_weight"))
     return {"history": history, "display": display}
 

@@ -373,7 +373,8 @@ class MesaPasses:
 
     @_in_own_context
     def taau_accumulate(self, npu_output, color, reprojected, motion, jitter, scale: int, q_scale: float, q_zero_point: int,
-                        correction_bound: float, history_gain_min: float, still_motion_px: float, sample_sigma: float,
+                        correction_bound: float, box_bound: float, history_gain_min: float, still_motion_px: float,
+                        sample_sigma: float,
                         prior_weight: float, max_weight: float):
         _, hh, hw, _ = npu_output.shape
         raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
@@ -383,7 +384,7 @@ class MesaPasses:
                "reprojected": self.texture(reprojected, "rgba16f"), "motion": self.texture(motion, "rg32f"),
                "history": history, "display": display}
         uni = {"u_scale": scale, "u_steer_channels": int(npu_output.shape[-1]), "u_jitter": _vec2(jitter), "u_q_scale": float(np.float32(q_scale)),
-               "u_q_zero_point": int(q_zero_point), "u_correction_bound": float(correction_bound),
+               "u_q_zero_point": int(q_zero_point), "u_correction_bound": float(correction_bound), "u_box_bound": float(box_bound),
                "u_history_gain_min": float(history_gain_min), "u_still_motion_px": float(still_motion_px),
                "u_sample_sigma": float(sample_sigma), "u_prior_weight": float(prior_weight), "u_max_weight": float(max_weight)}
         self.run("taau_accumulate_pass", (hw, hh), res, uni)

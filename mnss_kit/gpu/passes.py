@@ -159,7 +159,7 @@ PASSES = {
             "taau_accumulate_pass", (8, 8, 1), "hr",
             (_b("npu_output", 0, "uint[]"), _s("color", 0, "rgba16f"), _s("reprojected", 1, "rgba16f"),
              _s("motion", 2, "rg32f"), _i("history", 0, HISTORY_FORMAT), _i("display", 1, DISPLAY_FORMAT)),
-            ("u_scale", "u_steer_channels", "u_jitter", "u_q_scale", "u_q_zero_point", "u_correction_bound",
+            ("u_scale", "u_steer_channels", "u_jitter", "u_q_scale", "u_q_zero_point", "u_correction_bound", "u_box_bound",
              "u_history_gain_min", "u_still_motion_px", "u_sample_sigma", "u_prior_weight", "u_max_weight"),
             exact=False,
         ),

@@ -164,7 +164,8 @@ class ReferencePasses:
         return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]
 
     def taau_accumulate(self, npu_output, color, reprojected, motion, jitter, scale: int, q_scale: float, q_zero_point: int,
-                        correction_bound: float, history_gain_min: float, still_motion_px: float, sample_sigma: float,
+                        correction_bound: float, box_bound: float, history_gain_min: float, still_motion_px: float,
+                        sample_sigma: float,
                         prior_weight: float, max_weight: float):
         """taau_accumulate_pass.  npu_output (1,H,W,6 or 8) int8 raw steering (the first six used), color
         (h,w,3), reprojected (H,W,4), motion (h,w,2) -> (history (H,W,4) fp16 values: the uncorrected
@@ -174,7 +175,7 @@ class ReferencePasses:
         r = to_half(reprojected)
         floor = taau.history_floor(motion, scale, history_gain_min, still_motion_px)
         output, history, weight = taau.blend(*terms, r[..., :3], r[..., 3:], prior_weight, max_weight,
-                                             taau.steer_from_raw(raw, correction_bound, floor))
+                                             taau.steer_from_raw(raw, correction_bound, floor, box_bound=box_bound))
         return to_half(np.concatenate([history, weight], axis=-1)), encode_unorm8(output)
 
     def taau_filter(self, npu_output, history, q_scale: float, q_zero_point: int, correction_bound: float,

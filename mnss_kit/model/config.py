@@ -34,6 +34,15 @@ def model_config_from_dict(section: dict, source: str = "model config"):
     return from_dict(FAMILIES[family].config, section, where="model", source=source)
 
 
+def describes(saved, config) -> bool:
+    """Whether a checkpoint record's ``model:`` section ``saved`` is ``config``: parsed, so a key the
+    section gained after the record was written reads as its default."""
+    try:
+        return model_config_from_dict(saved) == config
+    except (UserError, ValueError, TypeError):
+        return False
+
+
 def load_model_config(name_or_path: str | Path, overrides: list[str] | None = None):
     """Read the ``model:`` section of a config file (a path or a name under ``mnss_kit/configs/models``).
 

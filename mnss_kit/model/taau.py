@@ -82,15 +82,23 @@ def history_floor(hr_motion: torch.Tensor, history_gain_min: float, still_motion
     return history_gain_min * (1.0 - motion_px / still_motion_px).clamp(0.0, 1.0)
 
 
+def box_widening(raw: torch.Tensor, box_bound: float) -> torch.Tensor:
+    """The clamp box's widening per side, in units of its span (``ops.taau.box_widening``):
+    ``box_bound`` tanh where the raw value is positive, 0.5 tanh where it narrows the box, which at
+    -0.5 is its centre: a narrower box would be inverted."""
+    t = torch.tanh(raw)
+    return torch.where(t > 0, box_bound * t, 0.5 * t)
+
+
 def steer_from_raw(raw: torch.Tensor, correction_bound: float, history_gain_min: torch.Tensor | float = 0.0,
-                   filter_bound: float = 0.0) -> Steer:
+                   filter_bound: float = 0.0, box_bound: float = 0.5) -> Steer:
     """A steering net's raw output (N, 6 or 8, H, W) mapped to its ranges (``ops.taau.steer_from_raw``):
     sample gain 2 sigmoid in (0, 2), history gain the same but at least ``history_gain_min``, box
-    widening tanh / 2, correction ``correction_bound`` tanh and, with 8 channels, the display
+    widening ``box_widening``, correction ``correction_bound`` tanh and, with 8 channels, the display
     filter's two weights ``filter_bound`` tanh."""
     history_gain = torch.maximum(2.0 * torch.sigmoid(raw[:, 0:1]), torch.as_tensor(history_gain_min, dtype=raw.dtype))
     steer = Steer(history_gain=history_gain, sample_gain=2.0 * torch.sigmoid(raw[:, 1:2]),
-                  box_widen=0.5 * torch.tanh(raw[:, 2:3]), correction=correction_bound * torch.tanh(raw[:, 3:6]))
+                  box_widen=box_widening(raw[:, 2:3], box_bound), correction=correction_bound * torch.tanh(raw[:, 3:6]))
     if raw.shape[1] > 6:
         steer.filter_axis = filter_bound * torch.tanh(raw[:, 6:7])
         steer.filter_diagonal = filter_bound * torch.tanh(raw[:, 7:8])

@@ -173,16 +173,24 @@ def motion_length(motion: np.ndarray, scale: int) -> np.ndarray:
     return np.sqrt((hr * hr).sum(axis=-1, keepdims=True)).astype(np.float32)
 
 
+def box_widening(raw: np.ndarray, box_bound: float) -> np.ndarray:
+    """The clamp box's widening per side in units of its span: ``box_bound`` tanh where the raw value
+    is positive (the box widens), 0.5 tanh where it is negative (the box narrows, at most to its
+    centre; a narrower box would be inverted)."""
+    t = np.tanh(np.asarray(raw, np.float32))
+    return np.where(t > 0, np.float32(box_bound) * t, np.float32(0.5) * t).astype(np.float32)
+
+
 def steer_from_raw(raw: np.ndarray, correction_bound: float, history_gain_min=0.0,
-                   filter_bound: float = 0.0) -> Steer:
+                   filter_bound: float = 0.0, box_bound: float = 0.5) -> Steer:
     """The ``ntaau`` net's raw output (H, W, 6 or 8) mapped to its ranges: gains 2 sigmoid in (0, 2),
-    the history gain at least ``history_gain_min``, box widening tanh / 2, correction
+    the history gain at least ``history_gain_min``, box widening ``box_widening``, correction
     ``correction_bound`` tanh and, with 8 channels, the display filter's weights ``filter_bound`` tanh."""
     raw = np.asarray(raw, np.float32)
     sigmoid = lambda x: 1.0 / (1.0 + np.exp(-x))  # noqa: E731
     history_gain = np.maximum(2.0 * sigmoid(raw[..., 0:1]), np.asarray(history_gain_min, np.float32))
     steer = Steer(history_gain=history_gain, sample_gain=2.0 * sigmoid(raw[..., 1:2]),
-                  box_widen=0.5 * np.tanh(raw[..., 2:3]), correction=correction_bound * np.tanh(raw[..., 3:6]))
+                  box_widen=box_widening(raw[..., 2:3], box_bound), correction=correction_bound * np.tanh(raw[..., 3:6]))
     if raw.shape[-1] > 6:
         steer.filter_axis = np.float32(filter_bound) * np.tanh(raw[..., 6:7])
         steer.filter_diagonal = np.float32(filter_bound) * np.tanh(raw[..., 7:8])

@@ -160,11 +160,12 @@ def _trained_as(record: dict, experiment) -> bool:
     """Whether a checkpoint ``record`` was trained on the same sequences for the same steps (a finished
     run that stopped at its time cap counts as finished)."""
     from ..config import to_dict
+    from ..model.config import describes
     from ..train.loop import BOOKKEEPING_KEYS
 
     saved, wanted = record.get("train") or {}, to_dict(experiment.train)
     same = all(saved.get(k) == v for k, v in wanted.items() if k not in BOOKKEEPING_KEYS)
-    return same and record.get("config") == to_dict(experiment.model)
+    return same and describes(record.get("config"), experiment.model)
 
 
 def evaluate_rung(name: str, checkpoint: Path, digest: str, test_seqs: list[Path], devices: list[str], request: SizeRequest) -> dict:

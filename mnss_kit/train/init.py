@@ -15,6 +15,7 @@ from torch import nn
 from ..config import to_dict
 from ..errors import UserError
 from ..model import checkpoint
+from ..model.config import model_config_from_dict
 from ..model.families import build_model
 
 log = logging.getLogger(__name__)
@@ -29,7 +30,8 @@ def initial_weights(config, name_or_path: str) -> tuple[dict, dict]:
                         f"start a {config.family} x{model.scale} model")
     weights = source.state_dict()
     _check_tensors(model.state_dict(), weights, name_or_path)
-    differing = sorted(k for k, v in to_dict(config).items() if record["config"].get(k) != v)
+    saved = to_dict(model_config_from_dict(record["config"]))  # keys added since the record read as defaults
+    differing = sorted(k for k, v in to_dict(config).items() if saved.get(k) != v)
     if differing:
         log.info("--init %s: model.%s differ from the checkpoint's (no tensor changes shape; the config's are used)",
                  name_or_path, ", model.".join(differing))

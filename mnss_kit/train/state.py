@@ -15,10 +15,10 @@ import numpy as np
 import torch
 from torch import nn
 
-from ..config import to_dict
 from ..errors import UserError
 from ..fileio import atomic_output_path
 from ..model import checkpoint
+from ..model.config import describes
 
 LAST = "last.pt"
 FINAL = "model.pt"
@@ -60,7 +60,7 @@ def save_last(path: Path, model: nn.Module, record: dict, optimizer: torch.optim
 def load_last(path: Path, model: nn.Module, optimizer: torch.optim.Optimizer) -> tuple[dict, dict]:
     """Restore weights, optimizer and RNGs from ``last.pt``; returns ``(record, train_state)``."""
     record, state_dict = checkpoint.read_record(path)
-    if record.get("config") != to_dict(model.config):
+    if not describes(record.get("config"), model.config):
         raise UserError(f"the model config differs from the one {path} was trained with; resume with the same model: section")
     payload = torch.load(path, map_location="cpu", weights_only=True)
     train_state = payload.get("train_state")

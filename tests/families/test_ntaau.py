@@ -141,6 +141,17 @@ def test_the_display_filter_is_bounded_and_stays_out_of_the_history():
         NTAAUConfig(filter_bound=0.3)
 
 
+def test_the_clamp_box_widens_by_at_most_box_bound_and_narrows_to_its_centre():
+    raw = torch.zeros(1, 6, 4, 4)
+    raw[:, 2, :2] = 50.0
+    raw[:, 2, 2:] = -50.0  # narrowing stops at the centre: -0.5
+    widen = taau.steer_from_raw(raw, 0.1, 0.0, 0.0, box_bound=1.5).box_widen
+    torch.testing.assert_close(widen[:, :, :2], torch.full((1, 1, 2, 4), 1.5))
+    torch.testing.assert_close(widen[:, :, 2:], torch.full((1, 1, 2, 4), -0.5))
+    with pytest.raises(ValueError, match="box_bound"):
+        NTAAUConfig(box_bound=0.0)
+
+
 @pytest.mark.parametrize("filter_bound", [0.0, 0.25])
 def test_random_steering_stays_finite_and_in_range(filter_bound):
     model = randomise_convs(build_model(NTAAUConfig(filter_bound=filter_bound)), noise=2.0)
@@ -165,3 +176,18 @@ def test_the_npu_stage_quantizes():
     features = [torch.rand(1, NTAAUConfig().npu_input_channels(), 8, 10).numpy() for _ in range(4)]
     art = quantize_module(npu_module(model), [(f,) for f in features], QuantizeOptions(), name="ntaau")
     assert art.tflite[:8] and len(art.graph.ops) > 0  # the bundle: tests/families/test_family_chain.py
+
+
+def test_the_bundle_schedule_hands_the_gpu_the_configs_bounds():
+    """The GPU passes get every bound and floor the torch accumulation reads from the config (a
+    bundle whose golden frames come from the same schedule could not catch a wrong one)."""
+    from mnss_kit.model.ntaau.gpu_plan import schedule
+
+    config = NTAAUConfig(correction_bound=0.07, box_bound=1.5, history_gain_min=0.8, still_motion_px=2.0, filter_bound=0.2)
+    npu = {"model": "steer.tflite", "input": "in", "output": "out", "input_q": (0.01, 0), "output_q": (0.02, 3)}
+    steps = {s["pass"]: s["uniforms"] for s in schedule(config, (16, 8), npu, "tflite-ref")["steps"] if s["kind"] == "gpu"}
+    accumulate, display_filter = steps["taau_accumulate_pass"], steps["taau_filter_pass"]
+    for key in ("correction_bound", "box_bound", "history_gain_min", "still_motion_px"):
+        assert accumulate[f"u_{key}"] == {"value": getattr(config, key)}, key
+    assert display_filter["u_filter_bound"] == {"value": config.filter_bound}
+    assert display_filter["u_correction_bound"] == {"value": config.correction_bound}

@@ -59,7 +59,7 @@ def test_steered_accumulation_matches_reference(mesa, ref, pattern, scale):
     steering = rng.integers(-128, 128, (1, H * scale, W * scale, 6)).astype(np.int8)
     for jitter in pattern_jitters(pattern, scale)[:4]:
         # the floor fades over 2 HR pixels of motion: random_frame's motion puts pixels on both sides
-        args = (steering, f["color"], reprojected, f["motion"], jitter, scale, 0.02, 3, 0.1, 0.75, 2.0, PARAMS.sample_sigma,
+        args = (steering, f["color"], reprojected, f["motion"], jitter, scale, 0.02, 3, 0.1, 1.5, 0.75, 2.0, PARAMS.sample_sigma,
                 PARAMS.prior_weight, PARAMS.max_weight)
         (history, display), (want_history, want_display) = mesa.taau_accumulate(*args), ref.taau_accumulate(*args)
         assert_float_close(history, want_history, TOLERANCE)
@@ -75,7 +75,7 @@ def test_display_filter_matches_reference(mesa, ref, scale):
     f = random_frame(rng, H, W, scale)
     reprojected = ref.taau_reproject(_history(rng, scale), f["motion"], scale, False, PARAMS.blur_penalty)
     steering = rng.integers(-128, 128, (1, H * scale, W * scale, 8)).astype(np.int8)
-    args = (steering, f["color"], reprojected, f["motion"], (0.25, -0.25), scale, 0.02, 3, 0.1, 0.75, 0.0, PARAMS.sample_sigma,
+    args = (steering, f["color"], reprojected, f["motion"], (0.25, -0.25), scale, 0.02, 3, 0.1, 0.5, 0.75, 0.0, PARAMS.sample_sigma,
             PARAMS.prior_weight, PARAMS.max_weight)
     (history, display), (want_history, want_display) = mesa.taau_accumulate(*args), ref.taau_accumulate(*args)
     assert_float_close(history, want_history, TOLERANCE)

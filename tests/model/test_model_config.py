@@ -75,7 +75,10 @@ def test_shipped_fast_variant_trains_like_the_default():
     base, default, fast_base, fast = (load_experiment(name)[0] for name in names)
     assert fast_base.train == base.train and fast_base.data == fast.data == default.data == base.data
     assert replace(fast.train, init=None) == replace(default.train, init=None)
-    assert fast.model == fast_base.model and fast.model.width < default.model.width
+    same_net = lambda m: replace(m, width=default.model.width, layers=default.model.layers)  # noqa: E731
+    assert same_net(fast.model) == default.model and same_net(fast_base.model) == base.model
+    assert (fast.model.width, fast.model.layers) == (fast_base.model.width, fast_base.model.layers)
+    assert fast.model.width < default.model.width
     assert (default.train.init, fast.train.init) == ("runs/ntaau_x2_base/model.pt", "runs/ntaau_x2_fast_base/model.pt")
 
 
@@ -84,6 +87,7 @@ def test_shipped_ntaau_checkpoints_were_trained_by_their_configs(name):
     """The fine-tune config reproduces the shipped record's train section and model (the recipe has one source)."""
     from mnss_kit.config import to_dict
     from mnss_kit.model import checkpoint
+    from mnss_kit.model.config import describes
     from mnss_kit.train.config import load_experiment
     from mnss_kit.train.loop import BOOKKEEPING_KEYS
     experiment, _ = load_experiment(name)
@@ -91,9 +95,9 @@ def test_shipped_ntaau_checkpoints_were_trained_by_their_configs(name):
     ours = to_dict(experiment.train)
     differing = sorted(k for k in ours if k not in BOOKKEEPING_KEYS | {"init"} and record["train"].get(k) != ours[k])
     assert not differing, differing
-    assert record["config"] == to_dict(experiment.model)
+    assert describes(record["config"], experiment.model)
     base, _ = load_experiment(f"{name}_base")
-    assert record["init"]["config"] == to_dict(base.model)
+    assert describes(record["init"]["config"], base.model)
 
 
 @pytest.mark.parametrize("text, message", [("base: [1]\n", "base"), ("base: m.yaml\n", "loop"), ("base: nowhere\n", "nowhere")])
@@ -101,3 +105,14 @@ def test_bad_bases_are_user_errors(tmp_path, text, message):
     path = write(tmp_path, text)
     with pytest.raises(UserError, match=message):
         load_model_config(path)
+
+
+def test_a_record_describes_a_config_with_keys_added_since_at_their_defaults():
+    from mnss_kit.config import to_dict
+    from mnss_kit.model.config import describes
+    from mnss_kit.model.ntaau.config import NTAAUConfig
+    older = {k: v for k, v in to_dict(NTAAUConfig(width=9)).items() if k != "box_bound"}
+    assert describes(older, NTAAUConfig(width=9))
+    assert not describes(older, NTAAUConfig(width=9, box_bound=1.0))
+    assert not describes(older, NTAAUConfig(width=16))
+    assert not describes({"family": "ntaau", "width": "wide"}, NTAAUConfig()) and not describes(None, NTAAUConfig())

@@ -58,7 +58,7 @@ def test_a_steered_sequence_matches_the_reference(channels, still_motion_px):
     """With ``still_motion_px`` the floor fades with the motion (about 3 HR pixels here, so pixels
     fall on both sides)."""
     rng = np.random.default_rng(7)
-    scale, h, w, bound, gain_min, filter_bound = 2, 6, 8, 0.1, 0.75, 0.2  # raw ~ N(0, 2): gains on both sides of the floor
+    scale, h, w, bound, gain_min, filter_bound, box_bound = 2, 6, 8, 0.1, 0.75, 0.2, 1.5  # raw ~ N(0, 2): gains on both sides of the floor
     params = torch_taau.TAAUParams()
     state, ref_history, ref_weight = None, None, None
     for t in range(5):
@@ -68,7 +68,7 @@ def test_a_steered_sequence_matches_the_reference(channels, still_motion_px):
         inputs = torch_taau.taau_inputs(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.tensor([float(reset)]),
                                         state, scale, params)
         floor = torch_taau.history_floor(inputs.hr_motion, gain_min, still_motion_px)
-        out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound, floor, filter_bound))
+        out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound, floor, filter_bound, box_bound))
 
         terms = taau.current_terms(colour, jitter, scale, params.sample_sigma)
         if ref_history is None:
@@ -80,7 +80,7 @@ def test_a_steered_sequence_matches_the_reference(channels, still_motion_px):
             np.testing.assert_allclose(hwc(floor), ref_floor, atol=1e-5)
             assert 0.0 < ref_floor.mean() < gain_min
         ref_out, ref_history, ref_weight = taau.blend(*terms, history, weight, params.prior_weight, params.max_weight,
-                                                      taau.steer_from_raw(raw, bound, ref_floor, filter_bound))
+                                                      taau.steer_from_raw(raw, bound, ref_floor, filter_bound, box_bound))
         np.testing.assert_allclose(hwc(out), ref_out, atol=1e-4)
         np.testing.assert_allclose(hwc(state["history"]), ref_history, atol=1e-4)
         np.testing.assert_allclose(hwc(state["weight"]), ref_weight, atol=1e-4)

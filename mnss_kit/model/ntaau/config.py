@@ -31,6 +31,9 @@ class NTAAUConfig:
     # > 0: the net also steers a 3x3 filter of the displayed frame (model.taau.display_filter), each
     # of its two weights (axis and diagonal neighbours) at most this; 0: no filter (6 channels)
     filter_bound: float = 0.0
+    # the clamp box widens by at most this times its span on each side (it narrows by at most 0.5:
+    # to its centre)
+    box_bound: float = 0.5
     alpha: float = 0.1  # TAAU's converged blend factor (model.taau.TAAUParams)
 
     def __post_init__(self):
@@ -44,6 +47,8 @@ class NTAAUConfig:
             raise ValueError(f"history_gain_min must be in [0, 1], got {self.history_gain_min}")
         if self.still_motion_px < 0.0:
             raise ValueError(f"still_motion_px must be >= 0, got {self.still_motion_px}")
+        if not 0.0 < self.box_bound <= 4.0:
+            raise ValueError(f"box_bound must be in (0, 4], got {self.box_bound}")
         if not 0.0 <= self.filter_bound <= 0.25:
             raise ValueError(f"filter_bound must be in [0, 0.25], got {self.filter_bound}")
 

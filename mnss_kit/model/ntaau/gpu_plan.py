@@ -84,7 +84,7 @@ def schedule(config: NTAAUConfig, lr_size: tuple[int, int], npu: dict, profile: 
              {"npu_output": "npu_output", "color": "color", "reprojected": "reprojected", "motion": "motion",
               "history": "history", "display": "display"},
              {"u_scale": const(s), "u_steer_channels": const(config.steer_channels()), "u_jitter": per_frame("offset"),
-              **dequantize, "u_correction_bound": const(config.correction_bound),
+              **dequantize, "u_correction_bound": const(config.correction_bound), "u_box_bound": const(config.box_bound),
               "u_history_gain_min": const(config.history_gain_min), "u_still_motion_px": const(config.still_motion_px),
               "u_sample_sigma": const(params.sample_sigma), "u_prior_weight": const(params.prior_weight),
               "u_max_weight": const(params.max_weight)}, **a),

@@ -12,7 +12,8 @@ Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``
                             pixel-unshuffled)
     steer            (npu)  3x3 convs at LR, pixel shuffle -> 6 (8) raw values per HR pixel
     taau_accumulate  (gpu)  history gain max(2 sigmoid(a), history_gain_min), sample gain
-                            2 sigmoid(b), box widening tanh(c) / 2, correction
+                            2 sigmoid(b), box widening box_bound tanh(c) (narrowing
+                            tanh(c) / 2: at most to the box's centre), correction
                             bound * tanh(d) (YCoCg, display only); TAAU's blend with them; with
                             ``filter_bound`` > 0 the displayed blend goes through a 3x3 filter
                             whose axis and diagonal weights are filter_bound * tanh(e), tanh(f)
@@ -93,7 +94,7 @@ class Accumulate(nn.Module):
     def forward(self, inputs: TAAUInputs, raw):
         c = self.config
         floor = history_floor(inputs.hr_motion, c.history_gain_min, c.still_motion_px)
-        return blend(inputs, self.params, steer_from_raw(raw, c.correction_bound, floor, c.filter_bound))
+        return blend(inputs, self.params, steer_from_raw(raw, c.correction_bound, floor, c.filter_bound, c.box_bound))
 
 
 class NTAAU(nn.Module):

@@ -109,11 +109,12 @@ float history_floor(highp sampler2D motion, ivec2 hr, int scale, float history_g
     return history_gain_min * clamp(1.0 - motion_px / still_motion_px, 0.0, 1.0);
 }
 
-Steer steer_from_raw(float raw[6], float correction_bound, float history_gain_min) {
+Steer steer_from_raw(float raw[6], float correction_bound, float history_gain_min, float box_bound) {
     Steer s;
     s.history_gain = max(2.0 / (1.0 + exp(-raw[0])), history_gain_min);
     s.sample_gain = 2.0 / (1.0 + exp(-raw[1]));
-    s.box_widen = 0.5 * tanh(raw[2]);
+    float t = tanh(raw[2]);
+    s.box_widen = (t > 0.0 ? box_bound : 0.5) * t;  // narrowing stops at the box's centre (ops.taau.box_widening)
     s.correction = correction_from_raw(vec3(raw[3], raw[4], raw[5]), correction_bound);
     return s;
 }

@@ -28,6 +28,7 @@ uniform vec2 u_jitter;
 uniform float u_q_scale;
 uniform int u_q_zero_point;
 uniform float u_correction_bound;
+uniform float u_box_bound;
 uniform float u_history_gain_min;
 uniform float u_still_motion_px;
 uniform float u_sample_sigma;
@@ -51,7 +52,7 @@ void main() {
     Neighbourhood n = neighbourhood_at(color, hr, u_jitter, u_scale, u_sample_sigma);
     vec3 spatial = spatial_at(color, hr, u_jitter, u_scale);
     float floor_gain = history_floor(motion, hr, u_scale, u_history_gain_min, u_still_motion_px);
-    Blended b = steered_blend(n, spatial, texelFetch(reprojected, hr, 0), steer_from_raw(raw, u_correction_bound, floor_gain),
+    Blended b = steered_blend(n, spatial, texelFetch(reprojected, hr, 0), steer_from_raw(raw, u_correction_bound, floor_gain, u_box_bound),
                               u_prior_weight, u_max_weight);
     imageStore(history, hr, round_to_half(b.history));
     imageStore(display, hr, encode_unorm8(vec4(b.display, 1.0)));
