@@ -374,8 +374,7 @@ class MesaPasses:
     @_in_own_context
     def taau_accumulate(self, npu_output, color, reprojected, motion, jitter, scale: int, q_scale: float, q_zero_point: int,
                         correction_bound: float, box_bound: float, history_gain_min: float, still_motion_px: float,
-                        sample_sigma: float,
-                        prior_weight: float, max_weight: float):
+                        sample_sigma: float, prior_weight: float, max_weight: float):
         _, hh, hw, _ = npu_output.shape
         raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
         raw += b"\0" * (-len(raw) % 4)

@@ -165,8 +165,7 @@ class ReferencePasses:
 
     def taau_accumulate(self, npu_output, color, reprojected, motion, jitter, scale: int, q_scale: float, q_zero_point: int,
                         correction_bound: float, box_bound: float, history_gain_min: float, still_motion_px: float,
-                        sample_sigma: float,
-                        prior_weight: float, max_weight: float):
+                        sample_sigma: float, prior_weight: float, max_weight: float):
         """taau_accumulate_pass.  npu_output (1,H,W,6 or 8) int8 raw steering (the first six used), color
         (h,w,3), reprojected (H,W,4), motion (h,w,2) -> (history (H,W,4) fp16 values: the uncorrected
         blend and its weight, display (H,W,3) uint8 codes of the corrected output, without the display filter)."""
