@@ -287,10 +287,8 @@ class MesaPasses:
     @_in_own_context
     def unpack_history(self, npu_output, q_scale: float, q_zero_point: int):
         _, hh, hw, _ = npu_output.shape
-        raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
-        raw += b"\0" * (-len(raw) % 4)
         history, display = self.empty((hw, hh), "rgba16f"), self.empty((hw, hh), "rgba8")
-        res = {"npu_output": self.ctx.buffer(raw), "history": history, "display": display}
+        res = {"npu_output": self.ctx.buffer(_packed_int8(npu_output)), "history": history, "display": display}
         uni = {"u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point)}
         self.run("unpack_history_pass", (hw, hh), res, uni)
         return self.read(history, "rgba16f", 3), self.read(display, "rgba8", 3)
@@ -338,10 +336,8 @@ class MesaPasses:
     @_in_own_context
     def remodulate(self, npu_output, l, fbeta, emissive, scale: int, q_scale: float, q_zero_point: int, demodulate: bool):
         _, hh, hw, _ = npu_output.shape
-        raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
-        raw += b"\0" * (-len(raw) % 4)
         history, display = self.empty((hw, hh), "rgba16f"), self.empty((hw, hh), "rgba8")
-        res = {"npu_output": self.ctx.buffer(raw), "history": history, "display": display, "l": self.texture_array(l),
+        res = {"npu_output": self.ctx.buffer(_packed_int8(npu_output)), "history": history, "display": display, "l": self.texture_array(l),
                "fbeta": self.texture(fbeta, "rgba16f") if demodulate else self._placeholder(),
                "emissive": self.texture(emissive, "rgba16f") if demodulate else self._placeholder()}
         uni = {"u_scale": scale, "u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point),
@@ -376,10 +372,8 @@ class MesaPasses:
                         correction_bound: float, box_bound: float, history_gain_min: float, still_motion_px: float,
                         sample_sigma: float, prior_weight: float, max_weight: float):
         _, hh, hw, _ = npu_output.shape
-        raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
-        raw += b"\0" * (-len(raw) % 4)
         history, display = self.empty((hw, hh), "rgba16f"), self.empty((hw, hh), "rgba8")
-        res = {"npu_output": self.ctx.buffer(raw), "color": self.texture(color, "rgba16f"),
+        res = {"npu_output": self.ctx.buffer(_packed_int8(npu_output)), "color": self.texture(color, "rgba16f"),
                "reprojected": self.texture(reprojected, "rgba16f"), "motion": self.texture(motion, "rg32f"),
                "history": history, "display": display}
         uni = {"u_scale": scale, "u_steer_channels": int(npu_output.shape[-1]), "u_jitter": _vec2(jitter), "u_q_scale": float(np.float32(q_scale)),
@@ -393,11 +387,15 @@ class MesaPasses:
     def taau_filter(self, npu_output, history, q_scale: float, q_zero_point: int, correction_bound: float,
                     filter_bound: float):
         _, hh, hw, _ = npu_output.shape
-        raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
-        raw += b"\0" * (-len(raw) % 4)
         display = self.empty((hw, hh), "rgba8")
-        res = {"npu_output": self.ctx.buffer(raw), "history": self.texture(history, "rgba16f"), "display": display}
+        res = {"npu_output": self.ctx.buffer(_packed_int8(npu_output)), "history": self.texture(history, "rgba16f"), "display": display}
         uni = {"u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point),
                "u_correction_bound": float(correction_bound), "u_filter_bound": float(filter_bound)}
         self.run("taau_filter_pass", (hw, hh), res, uni)
         return self.read(display, "rgba8", 3)
+
+
+def _packed_int8(npu_output) -> bytes:
+    """An int8 NHWC NPU output as the bytes of a std430 uint[] buffer (zero-padded to whole words)."""
+    raw = np.ascontiguousarray(npu_output, dtype=np.int8).tobytes()
+    return raw + b"\0" * (-len(raw) % 4)
