@@ -7,6 +7,7 @@ plain ``mnss-kit train`` is a world of one and touches none of this.
 
 from __future__ import annotations
 
+import gc
 import hashlib
 import logging
 import os
@@ -44,6 +45,9 @@ def setup() -> World:
 
 def teardown(world: World) -> None:
     if world.distributed and dist.is_initialized():
+        # The DDP wrapper holds the process group; collect it first, so that the group's threads are
+        # joined now and not while the interpreter shuts down (which aborts the process).
+        gc.collect()
         dist.destroy_process_group()
 
 
