@@ -55,9 +55,8 @@ class Tally:
 
 def pixel_classes(history_weight: np.ndarray, motion_px: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """(H, W) class labels such as ``short|moving|edge``."""
-    history = np.full(history_weight.shape, HISTORY_BINS[-1][1], dtype=object)
-    for upper, name in reversed(HISTORY_BINS):
-        history[history_weight < upper] = name
+    uppers, names = zip(*HISTORY_BINS)
+    history = np.array(names, dtype=object)[np.searchsorted(uppers, history_weight, side="right")]
     motion = np.where(motion_px < STILL_PX, "still", "moving").astype(object)
     gy, gx = np.gradient(reference.mean(axis=2))
     edge = np.where(np.abs(gx) + np.abs(gy) > EDGE_GRADIENT, "edge", "flat").astype(object)
@@ -71,20 +70,14 @@ def sequence_tally(seq: Path, model, frames: int) -> Tally:
     from mnss_kit.eval.baselines import TAAU
     from mnss_kit.eval.frames import iter_frames
     from mnss_kit.eval.methods import model_method
-    from mnss_kit.model.taau import blend, taau_inputs
 
     meta = fmt.read_meta(seq)
     taau, run_model = TAAU(meta.scale), model_method(model)
     tally, model_state, taau_state = Tally(), None, None
     for frame in iter_frames(seq, meta, frames):
-        f = frame.inputs
-        reset = f.get("reset", torch.zeros(1)).to(f["color"])
-        if taau_state is None:
-            reset = torch.ones_like(reset)
         with torch.no_grad():
-            output, _, model_state = run_model(f, model_state)
-            inputs = taau_inputs(f["color"], f["jitter"], f["motion"], reset, taau_state, taau.scale, taau.params)
-            taau_output, taau_state = blend(inputs, taau.params)
+            output, _, model_state = run_model(frame.inputs, model_state)
+        taau_output, inputs, taau_state = taau.step(frame.inputs, taau_state)
         model_se = squared_error(output, frame.reference)
         taau_se = squared_error(taau_output, frame.reference)
         labels = pixel_classes(inputs.history_weight[0, 0].numpy(), inputs.hr_motion[0].norm(dim=0).numpy(), frame.reference)
@@ -96,7 +89,9 @@ def sequence_tally(seq: Path, model, frames: int) -> Tally:
 
 def squared_error(output, reference: np.ndarray) -> np.ndarray:
     """(H, W) squared error over the colour channels, the output clamped to [0, 1] as eval does."""
-    image = output[0].clamp(0.0, 1.0).permute(1, 2, 0).numpy().astype(np.float64)
+    from mnss_kit.metrics.image import to_image
+
+    image = np.clip(to_image(output), 0.0, 1.0).astype(np.float64)
     return ((image - reference) ** 2).mean(axis=2)
 
 

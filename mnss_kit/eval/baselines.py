@@ -15,7 +15,7 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 
-from ..model.taau import TAAUParams, bicubic_upsample, blend, taau_inputs
+from ..model.taau import TAAUInputs, TAAUParams, bicubic_upsample, blend, taau_inputs
 
 
 class Bicubic:
@@ -50,13 +50,19 @@ class TAAU:
         self.params = TAAUParams(**params)
 
     def __call__(self, frame: dict, state):
+        output, _, new_state = self.step(frame, state)
+        return output, {}, new_state
+
+    def step(self, frame: dict, state) -> tuple[torch.Tensor, TAAUInputs, dict]:
+        """One frame -> ``(output, the blend's inputs, next state)``: the inputs say what the blend
+        had to work with (``scripts/error_breakdown.py`` reads the history weight)."""
         color = frame["color"]
         reset = frame.get("reset")
         reset = color.new_zeros(color.shape[0]) if reset is None else reset.to(color)
         with torch.no_grad():
             inputs = taau_inputs(color, frame["jitter"], frame["motion"], reset, state, self.scale, self.params)
             output, new_state = blend(inputs, self.params)
-        return output, {}, new_state
+        return output, inputs, new_state
 
 
 BASELINES = {"bicubic": Bicubic, "taau": TAAU}
