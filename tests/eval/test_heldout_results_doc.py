@@ -73,6 +73,7 @@ def test_the_doc_shows_the_reference_steadiness_where_measured(script, monkeypat
     written = {}
     monkeypatch.setattr(script, "atomic_write_text", lambda path, text: written.setdefault("text", text))
     monkeypatch.setattr(script, "shown_crops", lambda doc: {})
+    monkeypatch.setattr(script, "cost_section", lambda doc: [])
     script.write_doc(doc)
     text = written["text"]
     assert "| seq_a | 31.00 / 0.9900 | 30.60 / 0.9900 | 30.00 / 0.9900 | 29.00 / 0.9900 | 0.9971 |" in text
@@ -83,3 +84,22 @@ def test_a_miss_is_not_rounded_up_to_its_target(script):
     assert script._margin(0.9991, 1.0) == "+0.999"
     assert script._margin(1.004, 1.0) == "+1.00"
     assert script._margin(0.75, 1.0) == "+0.75"
+
+
+def test_the_cost_table_and_chart_come_from_each_models_cost(script, tmp_path, monkeypatch):
+    costs = {"net": {"macs_per_pixel": 2871.5, "device_ms": {"phone_a": 6.391, "phone_b": 68.9}},
+             "fast": {"macs_per_pixel": 1429.0, "device_ms": {"phone_a": 5.06, "phone_b": 34.3}}}
+    monkeypatch.setattr(script, "model_costs", lambda doc: costs)
+    monkeypatch.setattr(script, "COST_CHART", tmp_path / "results" / "psnr_vs_macs.png")
+    monkeypatch.setattr(script, "DOC", tmp_path / "results.md")
+    lines = script.cost_section(results())
+    assert "| model | MACs/px | phone_a ms (est.) | phone_b ms (est.) |" in lines
+    assert "| `net` | 2,872 | 6.39 | 68.90 |" in lines
+    assert "![mean PSNR against MACs per pixel](results/psnr_vs_macs.png)" in lines
+    assert (tmp_path / "results" / "psnr_vs_macs.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_a_models_cost_is_counted_from_its_architecture(script):
+    costs = script.model_costs({"models": ["ntaau_x2_fast"], "labels": ["ntaau_x2_fast"]})
+    assert round(costs["ntaau_x2_fast"]["macs_per_pixel"]) == 1429
+    assert all(ms > 0 for ms in costs["ntaau_x2_fast"]["device_ms"].values())
