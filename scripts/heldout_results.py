@@ -239,10 +239,10 @@ def write_doc(doc: dict) -> None:
 
 def model_costs(doc: dict) -> dict[str, dict]:
     """Per model: MACs per output pixel and the estimated frame ms of its default placement on each
-    device profile at 1280x720 (from the architecture, not the weights; estimates, not measurements)."""
-    from mnss_kit.bench.run import device_estimates
+    device profile at the split's default resolution (from the architecture, not the weights;
+    estimates, not measurements)."""
+    from mnss_kit.bench.run import model_cost
     from mnss_kit.model.checkpoint import load
-    from mnss_kit.model.macs import count_macs
     from mnss_kit.split.api import DEFAULT_RESOLUTION
     from mnss_kit.split.device import device_names
 
@@ -250,17 +250,18 @@ def model_costs(doc: dict) -> dict[str, dict]:
     for name, label in zip(doc["models"], doc["labels"]):
         model, _ = load(name)
         model.eval()
-        costs[label] = {"macs_per_pixel": count_macs(model).total,
-                        "device_ms": device_estimates(model, tuple(device_names()), DEFAULT_RESOLUTION)}
+        costs[label] = model_cost(model, tuple(device_names()), DEFAULT_RESOLUTION)
     return costs
 
 
 def cost_section(doc: dict) -> list[str]:
     """Each model's cost, as a table, and a chart of the mean PSNR table against it."""
+    from mnss_kit.split.api import DEFAULT_RESOLUTION_TEXT
+
     costs = model_costs(doc)
     devices = list(next(iter(costs.values()))["device_ms"])
     lines = ["## Cost against quality", "",
-             "MACs per output pixel and estimated frame milliseconds at 1280x720 output with the default GPU/NPU "
+             f"MACs per output pixel and estimated frame milliseconds at {DEFAULT_RESOLUTION_TEXT} output with the default GPU/NPU "
              "placement on each device profile: estimates from `mnss_kit/configs/devices/`, not measurements "
              "(docs/placement_ntaau_x2.md has them per stage).  The chart sets them against the mean PSNR above; "
              "TAAU and bicubic run no network and are its reference lines.", "",
@@ -281,10 +282,10 @@ def write_cost_chart(doc: dict, costs: dict, path: Path) -> None:
 
     sets = in_order(doc)
     fig, axes = plt.subplots(1, len(sets), figsize=(5.2 * len(sets), 4.2), squeeze=False)
+    xs = [cost["macs_per_pixel"] for cost in costs.values()]
     for ax, (config, entries) in zip(axes[0], sets):
         for i, (variant, entry) in enumerate(entries.items()):
             colour = f"C{i}"
-            xs = [costs[m]["macs_per_pixel"] for m in costs]
             ax.plot(xs, [entry["methods"][m]["psnr"] for m in costs], "o", color=colour, label=variant)
             ax.axhline(entry["methods"]["taau"]["psnr"], color=colour, lw=1, ls="--")
             ax.axhline(entry["methods"]["bicubic"]["psnr"], color=colour, lw=0.8, ls=":")
@@ -294,7 +295,7 @@ def write_cost_chart(doc: dict, costs: dict, path: Path) -> None:
         ax.set_title(f"{config} (dashed: TAAU, dotted: bicubic)", fontsize=9)
         ax.set_xlabel("MACs per output pixel")
         ax.set_ylabel("mean PSNR (dB)")
-        ax.set_xlim(0, 1.15 * max(c["macs_per_pixel"] for c in costs.values()))
+        ax.set_xlim(0, 1.15 * max(xs))
         ax.margins(y=0.1)
         ax.grid(alpha=0.3)
     handles, labels = axes[0][0].get_legend_handles_labels()

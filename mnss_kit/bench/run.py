@@ -266,7 +266,6 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
     from ..eval.run import evaluate
     from ..model.checkpoint import digest, load
     from ..model.families import family_of
-    from ..model.macs import count_macs
     from .latency import npu_latency
 
     model, record = load(name)
@@ -275,10 +274,8 @@ def model_records(name: str, data: Path, calibration: Path, settings: Settings, 
     family = family_of(model)
     methods = {"fp32": model_method(model), "int8": model_method(int8_at_size(model, calibration, data, label))}
     result = evaluate(methods, data, scale=model.scale, max_frames=settings.max_frames, progress=False)
-    macs = count_macs(model)
     latency = npu_latency(model, settings.latency_size, settings.latency_repeats)
-    cost = {"macs_per_pixel": macs.total, "npu_macs_per_pixel": macs.by_placement("npu"), "params": macs.params,
-            "device_ms": device_estimates(model, settings.devices, settings.latency_size)}
+    cost = model_cost(model, settings.devices, settings.latency_size)
     common = {"name": label, "family": family.name, "source": str(name), "checkpoint_sha256": digest(name), **cost}
     fp32 = {**common, "precision": "fp32", **quality(result["methods"]["fp32"]),
             "cpu_ms": {rt: t["fp32_ms"] for rt, t in latency.items()}}
@@ -327,6 +324,16 @@ def quality_table(result: dict, methods) -> dict:
     """:func:`quality` of each of ``methods`` in an eval result, over all frames and per sequence."""
     return {"methods": {m: quality(result["methods"][m]) for m in methods},
             "sequences": {seq: {m: quality(entry["methods"][m]) for m in methods} for seq, entry in result["sequences"].items()}}
+
+
+def model_cost(model, devices: tuple[str, ...], hr_size: tuple[int, int]) -> dict:
+    """A model's cost from its architecture: MACs per output pixel (all, and on the NPU), parameters
+    and the estimated frame ms on each device profile (:func:`device_estimates`)."""
+    from ..model.macs import count_macs
+
+    macs = count_macs(model)
+    return {"macs_per_pixel": macs.total, "npu_macs_per_pixel": macs.by_placement("npu"), "params": macs.params,
+            "device_ms": device_estimates(model, devices, hr_size)}
 
 
 def device_estimates(model, devices: tuple[str, ...], hr_size: tuple[int, int]) -> dict[str, float]:

@@ -170,22 +170,19 @@ def _trained_as(record: dict, experiment) -> bool:
 
 def evaluate_rung(name: str, checkpoint: Path, digest: str, test_seqs: list[Path], devices: list[str], request: SizeRequest) -> dict:
     """One ladder row: quality on the held-out sequences, cost, and training facts."""
-    from ..bench.run import device_estimates, quality
+    from ..bench.run import model_cost, quality
     from ..eval.methods import model_method
     from ..eval.run import evaluate
     from ..model.checkpoint import load
     from ..model.families import family_of
-    from ..model.macs import count_macs
 
     model, record = load(checkpoint)
     result = evaluate({"model": model_method(model)}, test_seqs, scale=model.scale, max_frames=request.max_frames,
                       progress=request.progress)
-    macs = count_macs(model)
     training = record.get("training") or {}
     return json_safe({
         "config": name, "family": family_of(model).name, **quality(result["methods"]["model"]),
-        "macs_per_pixel": macs.total, "npu_macs_per_pixel": macs.by_placement("npu"), "params": macs.params,
-        "device_ms": device_estimates(model, tuple(devices), tuple(request.output_size)),
+        **model_cost(model, tuple(devices), tuple(request.output_size)),
         "steps": training.get("steps"), "train_s": training.get("wall_time_s"), "stopped": training.get("stopped"),
         "checkpoint": (checkpoint.relative_to(request.out)).as_posix(), "checkpoint_sha256": digest,
     })
