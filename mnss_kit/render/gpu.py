@@ -27,6 +27,18 @@ def context():
     return _context
 
 
+def environment() -> dict[str, str]:
+    """What besides the config decides a render's last bits: the OpenGL driver (llvmpipe's
+    rasteriser and vector width) and the numpy and OpenEXR that compute the cameras and write the
+    files.  Two machines that differ here may render the same config to different bytes."""
+    import OpenEXR
+    from importlib.metadata import version
+
+    info = context().info
+    return {"gl_renderer": str(info["GL_RENDERER"]), "gl_version": str(info["GL_VERSION"]),
+            "numpy": np.__version__, "openexr": getattr(OpenEXR, "__version__", None) or version("OpenEXR")}
+
+
 def shader_source(name: str) -> str:
     """GLSL text of ``shaders/render/<name>`` with ``#include "file"`` lines expanded."""
     from ..gpu.glsl import flatten_text

@@ -25,6 +25,7 @@ from ..dataset.format import (
 )
 from ..errors import UserError
 from ..ops.jitter import jitter_sequence
+from . import gpu
 from .camera import perspective
 from .config import RenderConfig, SequenceConfig
 from .scene import Scene
@@ -74,7 +75,7 @@ def sequence_meta(seq: SequenceConfig, scene: Scene) -> SequenceMeta:
         motion=MotionConvention(units="pixels", points_to="previous", y_axis="down", scale=1.0),
         color_space="linear_hdr", exposure=seq.exposure,
         buffers={res: list(BUFFERS[res]) for res in ("lr", "hr")},
-        scene={**to_dict(seq), "renderer": RENDERER_NAME, "normal_space": "world",
+        scene={**to_dict(seq), "renderer": RENDERER_NAME, "environment": gpu.environment(), "normal_space": "world",
                "hr_buffers": "1 sample at pixel centres; reference is the box-filtered mean of hr_samples",
                "identity": "color = emissive + fbeta * L (L demodulated radiance; fbeta = 0 on sky)"},
     )
@@ -96,10 +97,26 @@ def _prepare_meta(seq_dir: Path, meta: SequenceMeta, overwrite: bool) -> None:
     path = seq_dir / META_FILE
     text = json.dumps(to_dict(meta), indent=2) + "\n"
     if path.is_file() and not overwrite:
-        if json.loads(path.read_text()) != json.loads(text):
-            raise UserError(f"{seq_dir} holds a sequence rendered with a different config (use --overwrite or another --out)")
+        old, new = json.loads(path.read_text()), json.loads(text)
+        if "environment" not in old.get("scene", {}):  # rendered before meta recorded it: unknown, not different
+            new = _without_environment(new)
+        if old != new:
+            raise UserError(f"{seq_dir} holds a sequence rendered {_difference(old, new)} (use --overwrite or another --out)")
         return
     write_meta(seq_dir, meta)
+
+
+def _difference(old: dict, new: dict) -> str:
+    """How the sequence on disk differs from this render: its config, or only the environment."""
+    if _without_environment(old) != _without_environment(new):
+        return "with a different config"
+    was = old.get("scene", {}).get("environment")
+    changed = [f"{k} {(was or {}).get(k)} -> {v}" for k, v in new["scene"]["environment"].items() if (was or {}).get(k) != v]
+    return "on another machine or with other libraries (" + "; ".join(changed) + "), so its frames may differ in the last bits"
+
+
+def _without_environment(meta: dict) -> dict:
+    return {**meta, "scene": {k: v for k, v in meta.get("scene", {}).items() if k != "environment"}}
 
 
 def parse_shard(text: str | None) -> tuple[int, int]:

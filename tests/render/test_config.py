@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from mnss_kit.cli import main
@@ -95,6 +97,26 @@ def test_rerender_with_another_config_into_same_directory_is_refused(tmp_path):
     with pytest.raises(UserError, match="different config"):
         render_dataset(changed, tmp_path / "out", progress=False)
     assert render_dataset(changed, tmp_path / "out", overwrite=True, progress=False).rendered == 1
+
+
+def test_meta_records_the_environment_and_a_resume_elsewhere_names_what_changed(tmp_path, monkeypatch):
+    from mnss_kit.render import gpu
+    from mnss_kit.render.writer import render_dataset
+
+    config = load_render_config(write(tmp_path, "sequences:\n  - {name: a, scene: arena, frames: 1, lr_size: [16, 9], hr_samples: 1}\n"))
+    render_dataset(config, tmp_path / "out", progress=False)
+    recorded = json.loads((tmp_path / "out" / "a" / "meta.json").read_text())["scene"]["environment"]
+    assert recorded == gpu.environment() and recorded["gl_renderer"] and recorded["numpy"]
+    monkeypatch.setattr(gpu, "environment", lambda: {**recorded, "numpy": "0.0.1"})
+    with pytest.raises(UserError, match=f"other libraries \\(numpy {recorded['numpy']} -> 0.0.1\\)"):
+        render_dataset(config, tmp_path / "out", progress=False)
+    # a sequence rendered before meta.json recorded the environment is resumed as it is
+    meta_path = tmp_path / "out" / "a" / "meta.json"
+    meta = json.loads(meta_path.read_text())
+    del meta["scene"]["environment"]
+    meta_path.write_text(json.dumps(meta))
+    assert render_dataset(config, tmp_path / "out", progress=False).rendered == 0
+    assert "environment" not in json.loads(meta_path.read_text())["scene"]
 
 
 def test_shipped_configs_load():
