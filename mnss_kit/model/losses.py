@@ -86,14 +86,19 @@ def flicker_term(error: torch.Tensor, prev_error: torch.Tensor, motion: torch.Te
 class DisplayLoss(nn.Module):
     """The loss of the families that train on the displayed output alone (fusesr, ntaau), per frame::
 
-        L = (1 - SSIM_11x11(I, I_GT)) + w * perceptual(I, I_GT) + mean|I - I_GT| + f * flicker
+        L = (1 - SSIM_11x11(I, I_GT)) + w * perceptual(I, I_GT) + mean|I - I_GT| + m * mean (I - I_GT)^2
+            + f * flicker
+
+    The squared term weighs an error by its size, so it pulls hardest on the few large errors (edges)
+    that L1 and SSIM weigh like any other; it is the error PSNR reports.
     """
 
-    terms = ("total", "ssim", "perceptual", "l1", "flicker")
+    terms = ("total", "ssim", "perceptual", "l1", "mse", "flicker")
 
-    def __init__(self, scale: int, perceptual_weight: float = 0.1, flicker_weight: float = 0.0):
+    def __init__(self, scale: int, perceptual_weight: float = 0.1, flicker_weight: float = 0.0, mse_weight: float = 0.0):
         super().__init__()
         self.scale, self.perceptual_weight, self.flicker_weight = scale, perceptual_weight, flicker_weight
+        self.mse_weight = mse_weight
 
     def forward(self, output: torch.Tensor, aux: dict, frame: dict, reference: torch.Tensor,
                 valid: torch.Tensor | None = None, flicker: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
@@ -102,9 +107,10 @@ class DisplayLoss(nn.Module):
         structural = 1.0 - ssim(output, reference).mean()
         perceptual = pyramid_loss(output, reference)
         l1 = F.l1_loss(output, reference)
+        mse = F.mse_loss(output, reference)
         flicker = output.new_zeros(()) if flicker is None else flicker
-        total = structural + self.perceptual_weight * perceptual + l1 + self.flicker_weight * flicker
-        return {"total": total, "ssim": structural, "perceptual": perceptual, "l1": l1, "flicker": flicker}
+        total = structural + self.perceptual_weight * perceptual + l1 + self.mse_weight * mse + self.flicker_weight * flicker
+        return {"total": total, "ssim": structural, "perceptual": perceptual, "l1": l1, "mse": mse, "flicker": flicker}
 
     def flicker(self, error: torch.Tensor, prev_error: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor | None) -> torch.Tensor:
         """``model.losses.flicker_term`` at this loss's scale."""

@@ -52,6 +52,7 @@ class TrainConfig:
     perceptual_weight: float = 0.1  # w
     aa_weight: float = 5.0  # k
     flicker_weight: float = 0.0  # f: change of the error between consecutive frames (not in the paper; losses.py)
+    mse_weight: float = 0.0  # m: mean squared error, the error PSNR measures (display-output families; losses.py)
     gt_history_epochs: int = 1  # E: epochs that feed the ground-truth previous frame as history
     crop_mask: bool = True  # leave out of the loss the pixels whose history came from outside the crop
     bptt: int = 0  # detach the history every K frames; 0 = backpropagate through the whole window
@@ -81,6 +82,9 @@ class TrainConfig:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         if self.total_steps is not None and self.total_steps < 1:
             raise ValueError(f"total_steps must be >= 1, got {self.total_steps}")
+        for name in ("perceptual_weight", "aa_weight", "flicker_weight", "mse_weight"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         if self.lr <= 0 or self.eps <= 0:
             raise ValueError("lr and eps must be positive")
         if self.lr_schedule not in ("constant", "cosine"):

@@ -1,13 +1,14 @@
-"""The MNSS loss and its weight-free perceptual term."""
+"""The MNSS and display losses and their weight-free perceptual term."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import torch
 
 from mnss_kit.metrics.image import ssim
 from mnss_kit.ops.subpixel import extract_samples as extract_samples_reference
-from mnss_kit.model.losses import laplacian_pyramid, pyramid_loss
+from mnss_kit.model.losses import DisplayLoss, laplacian_pyramid, pyramid_loss
 from mnss_kit.model.mnss.loss import MNSSLoss
 
 
@@ -85,3 +86,23 @@ def test_flicker_weight_enters_the_total():
     on = MNSSLoss(scale=2, flicker_weight=2.0)(output, {"aa": aa}, {"jitter": jitter}, reference, None, flicker)
     np.testing.assert_allclose(float(on["total"] - off["total"]), 0.5, rtol=1e-5)
     assert float(on["flicker"]) == 0.25
+
+
+def test_display_loss_mse_term_is_the_squared_error_and_enters_the_total():
+    reference, output = _images(3)
+    off = DisplayLoss(scale=2)(output, {}, {}, reference)
+    on = DisplayLoss(scale=2, mse_weight=10.0)(output, {}, {}, reference)
+    np.testing.assert_allclose(float(on["mse"]), float(((output - reference) ** 2).mean()), rtol=1e-6)
+    np.testing.assert_allclose(float(on["total"] - off["total"]), 10.0 * float(on["mse"]), rtol=1e-5)
+    assert tuple(on) == DisplayLoss.terms
+
+
+def test_mse_weight_is_refused_where_the_loss_has_no_such_term():
+    from mnss_kit.model.families import family_named
+    from mnss_kit.model.mnss.config import MNSSConfig
+    from mnss_kit.train.config import TrainConfig
+
+    with pytest.raises(ValueError, match="mse_weight must be >= 0"):
+        TrainConfig(mse_weight=-1.0)
+    with pytest.raises(ValueError, match="mnss loss has no such term"):
+        family_named("mnss").loss(MNSSConfig(), TrainConfig(mse_weight=1.0))

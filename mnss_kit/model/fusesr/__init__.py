@@ -22,7 +22,7 @@ def _build(config: FuseSRConfig):
 def _loss(config: FuseSRConfig, train):
     from ..losses import DisplayLoss
 
-    return DisplayLoss(config.scale, train.perceptual_weight, train.flicker_weight)
+    return DisplayLoss(config.scale, train.perceptual_weight, train.flicker_weight, train.mse_weight)
 
 
 def _gpu_plan(config: FuseSRConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:

@@ -24,6 +24,8 @@ def _build(config: MNSSConfig):
 def _loss(config: MNSSConfig, train):
     from .loss import MNSSLoss
 
+    if train.mse_weight:
+        raise ValueError("train.mse_weight is a term of the display loss (ntaau, fusesr); the mnss loss has no such term")
     return MNSSLoss(config.scale, train.perceptual_weight, train.aa_weight, train.flicker_weight)
 
 

@@ -25,7 +25,7 @@ def _build(config: NTAAUConfig):
 def _loss(config: NTAAUConfig, train):
     from ..losses import DisplayLoss
 
-    return DisplayLoss(config.scale, train.perceptual_weight, train.flicker_weight)
+    return DisplayLoss(config.scale, train.perceptual_weight, train.flicker_weight, train.mse_weight)
 
 
 def _gpu_plan(config: NTAAUConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
