@@ -107,22 +107,34 @@ def print_table(name: str, tally: Tally) -> None:
               f"| {tally.taau[label] / taau_total:.1%} | {ratio:.2f} |")
 
 
-def main() -> int:
-    from mnss_kit.dataset import format as fmt
-    from mnss_kit.errors import UserError
-    from mnss_kit.model.checkpoint import load
-
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def model_and_data_args(description: str) -> argparse.Namespace:
+    """``--data``, ``--model`` and ``--frames``, the arguments of the scripts that set a model against TAAU."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--data", type=Path, default=Path("data/test_x2"), help="a dataset or sequence directory")
     parser.add_argument("--model", default="ntaau_x2", help="a checkpoint or a shipped name")
     parser.add_argument("--frames", type=int, default=FRAMES, help="frames per sequence, from the first")
-    args = parser.parse_args()
+    return parser.parse_args()
+
+
+def sequences_in(data: Path) -> list[Path]:
+    from mnss_kit.dataset import format as fmt
+    from mnss_kit.errors import UserError
+
+    sequences = fmt.find_sequences(data)
+    if not sequences:
+        raise UserError(f"{data}: no sequences found")
+    return sequences
+
+
+def main() -> int:
+    from mnss_kit.errors import UserError
+    from mnss_kit.model.checkpoint import load
+
+    args = model_and_data_args(__doc__.splitlines()[0])
     try:
         model, _ = load(args.model)
         model.eval()
-        sequences = fmt.find_sequences(args.data)
-        if not sequences:
-            raise UserError(f"{args.data}: no sequences found")
+        sequences = sequences_in(args.data)
         pooled = Tally()
         for seq in sequences:
             tally = sequence_tally(seq, model, args.frames)
