@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..model.config import model_config_from_dict
-from ..config import apply_overrides, from_dict, read_config_with_base, resolve_config_path
+from ..config import apply_overrides, from_dict, read_config_with_base, resolve_config_path, to_dict
 from ..errors import UserError
 
 SCHEMA_VERSION = 1
@@ -117,6 +117,13 @@ class TrainConfig:
 
     def val_dirs(self) -> list[Path]:
         return _as_paths(self.val_data) if self.val_data else []
+
+
+def changed_train_keys(saved: dict, train: TrainConfig, ignore: frozenset | set = frozenset()) -> list[str]:
+    """The ``train:`` keys whose value differs from a checkpoint record's ``saved`` train section; a
+    key the record lacks (written before the key existed) counts as its default."""
+    defaults, now = to_dict(TrainConfig()), to_dict(train)
+    return sorted(k for k in now if k not in ignore and saved.get(k, defaults[k]) != now[k])
 
 
 @dataclass

@@ -27,7 +27,7 @@ from ..fileio import remove_stale_leftovers
 from ..model import checkpoint
 from ..model.families import build_model, family_of
 from . import distributed
-from .config import ExperimentConfig, TrainConfig
+from .config import ExperimentConfig, TrainConfig, changed_train_keys
 from .data import ensure_data, open_windows, step_loader
 from .init import initial_weights
 from .recurrent import WindowChunk, burn_in, detach_state, validate
@@ -283,8 +283,7 @@ BOOKKEEPING_KEYS = {"time_budget_min", "checkpoint_every", "log_every", "val_eve
 
 
 def _check_resumable(record: dict, experiment: ExperimentConfig) -> None:
-    saved, now = record.get("train") or {}, to_dict(experiment.train)
-    changed = sorted(k for k in now if k not in BOOKKEEPING_KEYS and saved.get(k) != now[k])
+    changed = changed_train_keys(record.get("train") or {}, experiment.train, BOOKKEEPING_KEYS)
     if changed:
         log.warning("train.%s differs from the run being resumed; the result will differ from an uninterrupted run", changed[0])
 

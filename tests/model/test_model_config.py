@@ -85,15 +85,13 @@ def test_shipped_fast_variant_trains_like_the_default():
 @pytest.mark.parametrize("name", ["ntaau_x2", "ntaau_x2_fast"])
 def test_shipped_ntaau_checkpoints_were_trained_by_their_configs(name):
     """The fine-tune config reproduces the shipped record's train section and model (the recipe has one source)."""
-    from mnss_kit.config import to_dict
     from mnss_kit.model import checkpoint
     from mnss_kit.model.config import describes
-    from mnss_kit.train.config import load_experiment
+    from mnss_kit.train.config import changed_train_keys, load_experiment
     from mnss_kit.train.loop import BOOKKEEPING_KEYS
     experiment, _ = load_experiment(name)
     record, _ = checkpoint.read_record(name)
-    ours = to_dict(experiment.train)
-    differing = sorted(k for k in ours if k not in BOOKKEEPING_KEYS | {"init"} and record["train"].get(k) != ours[k])
+    differing = changed_train_keys(record["train"], experiment.train, BOOKKEEPING_KEYS | {"init"})
     assert not differing, differing
     assert describes(record["config"], experiment.model)
     base, _ = load_experiment(f"{name}_base")

@@ -75,3 +75,14 @@ def test_cli_reports_bad_key_without_traceback(write_experiment, capsys):
     assert main(["train", str(write_experiment()), "--set", "train.bogus=1"]) == 2
     err = capsys.readouterr().err
     assert "train.bogus" in err and "Traceback" not in err
+
+
+def test_changed_train_keys_count_a_key_a_record_lacks_as_its_default():
+    from mnss_kit.config import to_dict
+    from mnss_kit.train.config import TrainConfig, changed_train_keys
+
+    saved = to_dict(TrainConfig(flicker_weight=4.0))
+    del saved["mse_weight"]  # a record written before the key existed
+    assert changed_train_keys(saved, TrainConfig(flicker_weight=4.0)) == []
+    assert changed_train_keys(saved, TrainConfig(flicker_weight=4.0, mse_weight=1.0)) == ["mse_weight"]
+    assert changed_train_keys(saved, TrainConfig(flicker_weight=28.0, lr=3e-4), {"lr"}) == ["flicker_weight"]
