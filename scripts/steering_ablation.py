@@ -56,16 +56,18 @@ def frame_psnrs(seq: Path, step, frames: int) -> np.ndarray:
     """Per-frame PSNR of a recurrent ``step(inputs, state) -> (output, ..., state)``."""
     from mnss_kit.dataset import format as fmt
     from mnss_kit.eval.frames import iter_frames
+    from mnss_kit.metrics.psnr import mse_psnr
 
     meta, state, out = fmt.read_meta(seq), None, []
     for frame in iter_frames(seq, meta, frames):
         output, *_, state = step(frame.inputs, state)
-        out.append(10.0 * np.log10(1.0 / squared_error(output, frame.reference).mean()))
+        out.append(mse_psnr(float(squared_error(output, frame.reference).mean())))
     return np.array(out)
 
 
 def ablated_step(model, change, seen: list | None = None):
-    """The model's recurrent step with ``change`` applied; ``seen`` collects the raw steering."""
+    """The model's recurrent step with ``change`` applied (replacing the step of any earlier call
+    on the same model); ``seen`` collects the raw steering."""
     import torch
 
     from mnss_kit.eval.methods import model_method
@@ -112,7 +114,8 @@ def main() -> int:
     args = model_and_data_args(__doc__.splitlines()[0])
     try:
         sequences = sequences_in(args.data)
-        if load(args.model)[0].config.family != "ntaau":
+        model = load(args.model)[0].eval()
+        if model.config.family != "ntaau":
             raise UserError(f"{args.model}: not an ntaau model; only ntaau models steer TAAU")
         taau = {seq.name: frame_psnrs(seq, TAAU(fmt.read_meta(seq).scale).step, args.frames) for seq in sequences}
         print("| steering | " + " | ".join(f"`{s.name}`" for s in sequences) + " | mean |")
@@ -121,7 +124,7 @@ def main() -> int:
         for name, change in ABLATIONS.items():
             margins = []
             for seq in sequences:
-                model, seen = load(args.model)[0].eval(), ([] if change is None else None)
+                seen = [] if change is None else None
                 margins.append(float((frame_psnrs(seq, ablated_step(model, change, seen), args.frames) - taau[seq.name]).mean()))
                 if seen:
                     stats[seq.name] = steering_stats(model, seen)

@@ -110,8 +110,8 @@ def _difference(old: dict, new: dict) -> str:
     """How the sequence on disk differs from this render: its config, or only the environment."""
     if _without_environment(old) != _without_environment(new):
         return "with a different config"
-    was = old.get("scene", {}).get("environment")
-    changed = [f"{k} {(was or {}).get(k)} -> {v}" for k, v in new["scene"]["environment"].items() if (was or {}).get(k) != v]
+    was = old["scene"]["environment"]  # the configs match, so both record one (_prepare_meta drops it from new otherwise)
+    changed = [f"{k} {was.get(k)} -> {v}" for k, v in new["scene"]["environment"].items() if was.get(k) != v]
     return "on another machine or with other libraries (" + "; ".join(changed) + "), so its frames may differ in the last bits"
 
 

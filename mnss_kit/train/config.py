@@ -77,14 +77,13 @@ class TrainConfig:
         for name in positive:
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
-        for name in ("burn_in", "gt_history_epochs", "bptt", "num_workers", "threads", "val_every"):
+        non_negative = ("burn_in", "gt_history_epochs", "bptt", "num_workers", "threads", "val_every",
+                        "perceptual_weight", "aa_weight", "flicker_weight", "mse_weight")
+        for name in non_negative:
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         if self.total_steps is not None and self.total_steps < 1:
             raise ValueError(f"total_steps must be >= 1, got {self.total_steps}")
-        for name in ("perceptual_weight", "aa_weight", "flicker_weight", "mse_weight"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         if self.lr <= 0 or self.eps <= 0:
             raise ValueError("lr and eps must be positive")
         if self.lr_schedule not in ("constant", "cosine"):
