@@ -129,8 +129,8 @@ def _taau_accumulate(p, c: Call):
 
 
 def _taau_filter(p, c: Call):
-    display = p.taau_filter(c.read["npu_output"], c.read["history"], c.u("u_q_scale"), c.u("u_q_zero_point"),
-                            c.u("u_correction_bound"), c.u("u_filter_bound"))
+    display = p.taau_filter(c.read["npu_output"], c.read["history"], c.read["motion"], c.u("u_scale"), c.u("u_q_scale"),
+                            c.u("u_q_zero_point"), c.u("u_correction_bound"), c.u("u_filter_bound"), c.u("u_filter_falloff"))
     return {"display": display}
 
 

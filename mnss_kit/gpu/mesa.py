@@ -384,13 +384,15 @@ class MesaPasses:
         return self.read(history, "rgba16f", 4), self.read(display, "rgba8", 3)
 
     @_in_own_context
-    def taau_filter(self, npu_output, history, q_scale: float, q_zero_point: int, correction_bound: float,
-                    filter_bound: float):
+    def taau_filter(self, npu_output, history, motion, scale: int, q_scale: float, q_zero_point: int,
+                    correction_bound: float, filter_bound: float, filter_falloff: float):
         _, hh, hw, _ = npu_output.shape
         display = self.empty((hw, hh), "rgba8")
-        res = {"npu_output": self.ctx.buffer(_packed_int8(npu_output)), "history": self.texture(history, "rgba16f"), "display": display}
-        uni = {"u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point),
-               "u_correction_bound": float(correction_bound), "u_filter_bound": float(filter_bound)}
+        res = {"npu_output": self.ctx.buffer(_packed_int8(npu_output)), "history": self.texture(history, "rgba16f"),
+               "motion": self.texture(motion, "rg32f"), "display": display}
+        uni = {"u_scale": scale, "u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point),
+               "u_correction_bound": float(correction_bound), "u_filter_bound": float(filter_bound),
+               "u_filter_falloff": float(filter_falloff)}
         self.run("taau_filter_pass", (hw, hh), res, uni)
         return self.read(display, "rgba8", 3)
 

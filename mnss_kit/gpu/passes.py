@@ -165,8 +165,9 @@ PASSES = {
         ),
         Pass(
             "taau_filter_pass", (8, 8, 1), "hr",
-            (_b("npu_output", 0, "uint[]"), _s("history", 0, HISTORY_FORMAT), _i("display", 0, DISPLAY_FORMAT)),
-            ("u_q_scale", "u_q_zero_point", "u_correction_bound", "u_filter_bound"),
+            (_b("npu_output", 0, "uint[]"), _s("history", 0, HISTORY_FORMAT), _s("motion", 1, "rg32f"),
+             _i("display", 0, DISPLAY_FORMAT)),
+            ("u_scale", "u_q_scale", "u_q_zero_point", "u_correction_bound", "u_filter_bound", "u_filter_falloff"),
             exact=False,
         ),
     )

@@ -177,10 +177,12 @@ class ReferencePasses:
                                              taau.steer_from_raw(raw, correction_bound, floor, box_bound=box_bound))
         return to_half(np.concatenate([history, weight], axis=-1)), encode_unorm8(output)
 
-    def taau_filter(self, npu_output, history, q_scale: float, q_zero_point: int, correction_bound: float,
-                    filter_bound: float):
-        """taau_filter_pass.  npu_output (1,H,W,8) int8 raw steering, history (H,W,4) this frame's blend
-        -> display (H,W,3) uint8 codes: the blend through the steered filter, plus the correction."""
+    def taau_filter(self, npu_output, history, motion, scale: int, q_scale: float, q_zero_point: int,
+                    correction_bound: float, filter_bound: float, filter_falloff: float):
+        """taau_filter_pass.  npu_output (1,H,W,8) int8 raw steering, history (H,W,4) this frame's blend,
+        motion (h,w,2) -> display (H,W,3) uint8 codes: the blend through the steered filter (faded by
+        ``taau.filter_gain``), plus the correction."""
         raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0]
-        steer = taau.steer_from_raw(raw, correction_bound, 0.0, filter_bound)
+        gain = taau.filter_gain(motion, scale, filter_falloff)
+        steer = taau.steer_from_raw(raw, correction_bound, 0.0, filter_bound, filter_scale=gain)
         return encode_unorm8(taau.display(to_half(history)[..., :3], steer))

@@ -82,6 +82,22 @@ def history_floor(hr_motion: torch.Tensor, history_gain_min: float, still_motion
     return history_gain_min * (1.0 - motion_px / still_motion_px).clamp(0.0, 1.0)
 
 
+def resample_spread(hr_motion: torch.Tensor) -> torch.Tensor:
+    """``f (1 - f)`` per axis for the fractional part ``f`` of the HR motion (N, 2, H, W)
+    (``ops.taau.resample_spread``): how much a bilinear fetch of the history there blurs it."""
+    frac = hr_motion - torch.floor(hr_motion)
+    return frac * (1.0 - frac)
+
+
+def filter_gain(hr_motion: torch.Tensor, falloff: float) -> torch.Tensor | float:
+    """What the display filter's weights are scaled by per HR pixel (``ops.taau.filter_gain``):
+    ``exp(-falloff * (sx + sy))`` with the resample spread ``sx, sy``, so the filter blurs less
+    where the history was just blurred by a fractional fetch; 1 when ``falloff`` is 0."""
+    if falloff <= 0.0:
+        return 1.0
+    return torch.exp(-falloff * resample_spread(hr_motion).sum(dim=1, keepdim=True))
+
+
 def box_widening(raw: torch.Tensor, box_bound: float) -> torch.Tensor:
     """The clamp box's widening per side, in units of its span (``ops.taau.box_widening``):
     ``box_bound`` tanh where the raw value is positive, 0.5 tanh where it narrows the box, which at
@@ -91,17 +107,18 @@ def box_widening(raw: torch.Tensor, box_bound: float) -> torch.Tensor:
 
 
 def steer_from_raw(raw: torch.Tensor, correction_bound: float, history_gain_min: torch.Tensor | float = 0.0,
-                   filter_bound: float = 0.0, box_bound: float = 0.5) -> Steer:
+                   filter_bound: float = 0.0, box_bound: float = 0.5,
+                   filter_scale: torch.Tensor | float = 1.0) -> Steer:
     """A steering net's raw output (N, 6 or 8, H, W) mapped to its ranges (``ops.taau.steer_from_raw``):
     sample gain 2 sigmoid in (0, 2), history gain the same but at least ``history_gain_min``, box
     widening ``box_widening``, correction ``correction_bound`` tanh and, with 8 channels, the display
-    filter's two weights ``filter_bound`` tanh."""
+    filter's two weights ``filter_bound`` tanh times ``filter_scale`` (``filter_gain``)."""
     history_gain = torch.maximum(2.0 * torch.sigmoid(raw[:, 0:1]), torch.as_tensor(history_gain_min, dtype=raw.dtype))
     steer = Steer(history_gain=history_gain, sample_gain=2.0 * torch.sigmoid(raw[:, 1:2]),
                   box_widen=box_widening(raw[:, 2:3], box_bound), correction=correction_bound * torch.tanh(raw[:, 3:6]))
     if raw.shape[1] > 6:
-        steer.filter_axis = filter_bound * torch.tanh(raw[:, 6:7])
-        steer.filter_diagonal = filter_bound * torch.tanh(raw[:, 7:8])
+        steer.filter_axis = filter_bound * torch.tanh(raw[:, 6:7]) * filter_scale
+        steer.filter_diagonal = filter_bound * torch.tanh(raw[:, 7:8]) * filter_scale
     return steer
 
 
@@ -201,8 +218,7 @@ def reprojected_history(history: torch.Tensor, weight: torch.Tensor, hr_motion: 
     reset (``reset`` (N,) > 0.5) and where the motion points off-screen."""
     n = history.shape[0]
     warped = warp_bilinear(torch.cat([history, weight], dim=1), hr_motion)
-    frac = hr_motion - torch.floor(hr_motion)
-    spread = frac * (1.0 - frac)
+    spread = resample_spread(hr_motion)
     keep = (reset.view(n, 1, 1, 1) < 0.5).to(history.dtype) * (~offscreen(hr_motion)).to(history.dtype)
     colour = rgb_to_ycocg(undo_bilinear_blur(warped[:, :3], spread) if params.sharpen else warped[:, :3])
     new_weight = warped[:, 3:] * keep * torch.exp(-params.blur_penalty * spread.sum(dim=1, keepdim=True))

@@ -113,12 +113,29 @@ def reprojected_history(history: np.ndarray, weight: np.ndarray, motion: np.ndar
     after a reset and where the motion leaves the frame."""
     hr_motion = upsample_motion(np.asarray(motion, np.float32), scale)
     warped = warp_bilinear(np.concatenate([history, weight], axis=-1), hr_motion)
-    frac = hr_motion - np.floor(hr_motion)
-    spread = frac * (1.0 - frac)
+    spread = resample_spread(hr_motion)
     colour = undo_bilinear_blur(warped[..., :3], spread) if sharpen else warped[..., :3]
     keep = (~offscreen(hr_motion))[..., None] & (not reset)
     new_weight = warped[..., 3:] * keep * np.exp(-blur_penalty * spread.sum(axis=-1, keepdims=True))
     return rgb_to_ycocg(colour), new_weight.astype(np.float32)
+
+
+def resample_spread(hr_motion: np.ndarray) -> np.ndarray:
+    """``f (1 - f)`` per axis (H, W, 2) for the fractional part ``f`` of the HR motion (H, W, 2):
+    the variance a bilinear fetch of the history there blurs it by."""
+    frac = hr_motion - np.floor(hr_motion)
+    return (frac * (1.0 - frac)).astype(np.float32)
+
+
+def filter_gain(motion: np.ndarray, scale: int, falloff: float):
+    """What the display filter's weights are scaled by per HR pixel (H, W, 1): ``exp(-falloff (sx +
+    sy))`` with the resample spread ``sx, sy`` of the HR motion upsampled from the LR ``motion``
+    (h, w, 2), so the filter blurs less where a fractional fetch has just blurred the history; 1 when
+    ``falloff`` is 0, the motion then not read."""
+    if falloff <= 0.0:
+        return np.float32(1.0)
+    spread = resample_spread(upsample_motion(np.asarray(motion, np.float32), scale))
+    return np.exp(-np.float32(falloff) * spread.sum(axis=-1, keepdims=True)).astype(np.float32)
 
 
 def current_terms(colour: np.ndarray, jitter, scale: int, sigma: float):
@@ -182,18 +199,19 @@ def box_widening(raw: np.ndarray, box_bound: float) -> np.ndarray:
 
 
 def steer_from_raw(raw: np.ndarray, correction_bound: float, history_gain_min=0.0,
-                   filter_bound: float = 0.0, box_bound: float = 0.5) -> Steer:
+                   filter_bound: float = 0.0, box_bound: float = 0.5, filter_scale=1.0) -> Steer:
     """The ``ntaau`` net's raw output (H, W, 6 or 8) mapped to its ranges: gains 2 sigmoid in (0, 2),
     the history gain at least ``history_gain_min``, box widening ``box_widening``, correction
-    ``correction_bound`` tanh and, with 8 channels, the display filter's weights ``filter_bound`` tanh."""
+    ``correction_bound`` tanh and, with 8 channels, the display filter's weights ``filter_bound`` tanh
+    times ``filter_scale`` (``filter_gain``)."""
     raw = np.asarray(raw, np.float32)
     sigmoid = lambda x: 1.0 / (1.0 + np.exp(-x))  # noqa: E731
     history_gain = np.maximum(2.0 * sigmoid(raw[..., 0:1]), np.asarray(history_gain_min, np.float32))
     steer = Steer(history_gain=history_gain, sample_gain=2.0 * sigmoid(raw[..., 1:2]),
                   box_widen=box_widening(raw[..., 2:3], box_bound), correction=correction_bound * np.tanh(raw[..., 3:6]))
     if raw.shape[-1] > 6:
-        steer.filter_axis = np.float32(filter_bound) * np.tanh(raw[..., 6:7])
-        steer.filter_diagonal = np.float32(filter_bound) * np.tanh(raw[..., 7:8])
+        steer.filter_axis = (np.float32(filter_bound) * np.tanh(raw[..., 6:7]) * filter_scale).astype(np.float32)
+        steer.filter_diagonal = (np.float32(filter_bound) * np.tanh(raw[..., 7:8]) * filter_scale).astype(np.float32)
     return steer
 
 

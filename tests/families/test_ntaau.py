@@ -3,6 +3,8 @@ configs meet their cost limits, and its NPU stage quantizes."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 import torch
 
@@ -139,6 +141,27 @@ def test_the_display_filter_is_bounded_and_stays_out_of_the_history():
     torch.testing.assert_close(filtered_state["history"], plain_out, atol=1e-6, rtol=0)
     with pytest.raises(ValueError, match="filter_bound"):
         NTAAUConfig(filter_bound=0.3)
+
+
+def test_the_display_filter_fades_where_the_history_was_resampled():
+    """With ``filter_falloff`` the filter keeps its full weights where the history moved by whole
+    pixels (a fetch without blur) and fades by exp(-falloff / 2) at half a pixel on both axes
+    (a resample spread of 1/4 each); the same raw steering without a falloff is not faded."""
+    raw = torch.zeros(1, 8, 4, 4)
+    raw[:, 6:] = 50.0
+    for falloff in (0.0, 1.5):
+        model = build_model(NTAAUConfig(filter_bound=0.2, filter_falloff=falloff))
+        motion = torch.zeros(1, 2, 2, 2)
+        motion[..., 1, :] = 0.25  # LR pixels: half an HR pixel at scale 2
+        inputs = taau.taau_inputs(torch.full((1, 3, 2, 2), 0.5), torch.zeros(1, 2), motion, torch.zeros(1), None, 2,
+                                  model.params)
+        gain = taau.filter_gain(inputs.hr_motion, falloff)
+        steer = taau.steer_from_raw(raw, 0.1, 0.0, 0.2, filter_scale=gain)
+        whole, half = steer.filter_axis[0, 0, 0], steer.filter_axis[0, 0, 3]
+        torch.testing.assert_close(whole, torch.full((4,), 0.2))
+        torch.testing.assert_close(half, torch.full((4,), 0.2 * math.exp(-falloff / 2)))
+    with pytest.raises(ValueError, match="filter_falloff"):
+        NTAAUConfig(filter_falloff=-1.0)
 
 
 def test_the_clamp_box_widens_by_at_most_box_bound_and_narrows_to_its_centre():

@@ -69,8 +69,9 @@ def test_steered_accumulation_matches_reference(mesa, ref, pattern, scale):
 @pytest.mark.parametrize("scale", [2, 3])
 def test_display_filter_matches_reference(mesa, ref, scale):
     """taau_filter_pass: the blend through the steered 3x3 filter (blur and sharpen, clamp-to-edge)
-    plus the correction, on Mesa against the reference; and the accumulation reads only the first
-    six of the eight steering channels."""
+    plus the correction, on Mesa against the reference, with and without the filter's fade where
+    the history was resampled; and the accumulation reads only the first six of the eight steering
+    channels."""
     rng = np.random.default_rng(5 * scale)
     f = random_frame(rng, H, W, scale)
     reprojected = ref.taau_reproject(_history(rng, scale), f["motion"], scale, False, PARAMS.blur_penalty)
@@ -80,7 +81,11 @@ def test_display_filter_matches_reference(mesa, ref, scale):
     (history, display), (want_history, want_display) = mesa.taau_accumulate(*args), ref.taau_accumulate(*args)
     assert_float_close(history, want_history, TOLERANCE)
     assert np.array_equal(want_display, ref.taau_accumulate(steering[..., :6], *args[1:])[1])
-    filtered = mesa.taau_filter(steering, history, 0.02, 3, 0.1, 0.2)
-    want = ref.taau_filter(steering, history, 0.02, 3, 0.1, 0.2)
-    assert np.abs(filtered.astype(int) - want.astype(int)).max() <= 1
-    assert np.abs(want.astype(int) - want_display.astype(int)).max() > 8  # the filter changed the display
+    wants = []
+    for falloff in (0.0, 4.0):
+        filter_args = (steering, history, f["motion"], scale, 0.02, 3, 0.1, 0.2, falloff)
+        filtered, want = mesa.taau_filter(*filter_args), ref.taau_filter(*filter_args)
+        assert np.abs(filtered.astype(int) - want.astype(int)).max() <= 1
+        wants.append(want.astype(int))
+    assert np.abs(wants[0] - want_display.astype(int)).max() > 8  # the filter changed the display
+    assert np.abs(wants[0] - wants[1]).max() > 8  # and its fade changed the filter

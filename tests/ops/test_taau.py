@@ -53,10 +53,11 @@ def test_each_step_matches_the_reference(scale):
         np.testing.assert_allclose(hwc(got[1]), want[1], atol=1e-4)  # weights up to 9
 
 
-@pytest.mark.parametrize("channels, still_motion_px", [(6, 0.0), (8, 0.0), (8, 3.0)])  # 8: the display filter
-def test_a_steered_sequence_matches_the_reference(channels, still_motion_px):
+@pytest.mark.parametrize("channels, still_motion_px, filter_falloff",  # 8: the display filter
+                         [(6, 0.0, 0.0), (8, 0.0, 0.0), (8, 3.0, 0.0), (8, 0.0, 1.5)])
+def test_a_steered_sequence_matches_the_reference(channels, still_motion_px, filter_falloff):
     """With ``still_motion_px`` the floor fades with the motion (about 3 HR pixels here, so pixels
-    fall on both sides)."""
+    fall on both sides); with ``filter_falloff`` the display filter fades with the resample spread."""
     rng = np.random.default_rng(7)
     scale, h, w, bound, gain_min, filter_bound, box_bound = 2, 6, 8, 0.1, 0.75, 0.2, 1.5  # raw ~ N(0, 2): gains on both sides of the floor
     params = torch_taau.TAAUParams()
@@ -68,7 +69,9 @@ def test_a_steered_sequence_matches_the_reference(channels, still_motion_px):
         inputs = torch_taau.taau_inputs(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.tensor([float(reset)]),
                                         state, scale, params)
         floor = torch_taau.history_floor(inputs.hr_motion, gain_min, still_motion_px)
-        out, state = torch_taau.blend(inputs, params, torch_taau.steer_from_raw(nchw(raw), bound, floor, filter_bound, box_bound))
+        fade = torch_taau.filter_gain(inputs.hr_motion, filter_falloff)
+        out, state = torch_taau.blend(inputs, params,
+                                      torch_taau.steer_from_raw(nchw(raw), bound, floor, filter_bound, box_bound, fade))
 
         terms = taau.current_terms(colour, jitter, scale, params.sample_sigma)
         if ref_history is None:
@@ -79,8 +82,12 @@ def test_a_steered_sequence_matches_the_reference(channels, still_motion_px):
         if still_motion_px:
             np.testing.assert_allclose(hwc(floor), ref_floor, atol=1e-5)
             assert 0.0 < ref_floor.mean() < gain_min
+        ref_fade = taau.filter_gain(motion, scale, filter_falloff)
+        if filter_falloff:
+            np.testing.assert_allclose(hwc(fade), ref_fade, atol=1e-5)
+            assert ref_fade.min() < 0.8
         ref_out, ref_history, ref_weight = taau.blend(*terms, history, weight, params.prior_weight, params.max_weight,
-                                                      taau.steer_from_raw(raw, bound, ref_floor, filter_bound, box_bound))
+                                                      taau.steer_from_raw(raw, bound, ref_floor, filter_bound, box_bound, ref_fade))
         np.testing.assert_allclose(hwc(out), ref_out, atol=1e-4)
         np.testing.assert_allclose(hwc(state["history"]), ref_history, atol=1e-4)
         np.testing.assert_allclose(hwc(state["weight"]), ref_weight, atol=1e-4)

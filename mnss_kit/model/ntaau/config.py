@@ -31,6 +31,10 @@ class NTAAUConfig:
     # > 0: the net also steers a 3x3 filter of the displayed frame (model.taau.display_filter), each
     # of its two weights (axis and diagonal neighbours) at most this; 0: no filter (6 channels)
     filter_bound: float = 0.0
+    # > 0: the display filter's weights fade as exp(-filter_falloff (sx + sy)) with the history's
+    # resample spread sx, sy (model.taau.filter_gain): where a fractional fetch has just blurred the
+    # history the filter blurs less (TAAU fades the history's weight there with its blur_penalty, 1.5)
+    filter_falloff: float = 0.0
     # the clamp box widens by at most this times its span on each side (it narrows by at most 0.5:
     # to its centre)
     box_bound: float = 0.5
@@ -47,6 +51,8 @@ class NTAAUConfig:
             raise ValueError(f"history_gain_min must be in [0, 1], got {self.history_gain_min}")
         if self.still_motion_px < 0.0:
             raise ValueError(f"still_motion_px must be >= 0, got {self.still_motion_px}")
+        if self.filter_falloff < 0.0:
+            raise ValueError(f"filter_falloff must be >= 0, got {self.filter_falloff}")
         if not 0.0 < self.box_bound <= 4.0:
             raise ValueError(f"box_bound must be in (0, 4], got {self.box_bound}")
         if not 0.0 <= self.filter_bound <= 0.25:

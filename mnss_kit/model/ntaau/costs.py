@@ -27,5 +27,9 @@ def history_floor(c) -> float:
 
 
 def display_filter(c) -> float:
-    """taau_filter_pass: two weights and the three correction values again, 9 taps of 3 channels."""
-    return 5 * TRANSCENDENTAL + 9 * 3 + 3 * 3 if c.filter_bound > 0 else 0.0
+    """taau_filter_pass: two weights and the three correction values again, 9 taps of 3 channels; with
+    a falloff, the HR motion at the pixel (bilinear, 2 channels), its resample spread and the fade."""
+    if c.filter_bound <= 0:
+        return 0.0
+    falloff = 2 * BILINEAR + 2 * 2 + 2 + TRANSCENDENTAL + 2 if c.filter_falloff > 0 else 0.0
+    return 5 * TRANSCENDENTAL + 9 * 3 + 3 * 3 + falloff

@@ -91,9 +91,10 @@ def schedule(config: NTAAUConfig, lr_size: tuple[int, int], npu: dict, profile: 
     ]
     if config.filter_bound > 0:
         steps.append(step(FILTER_PASS, "display filter", "taau_accumulate",
-                          {"npu_output": "npu_output", "history": "history", "display": "display"},
-                          {**dequantize, "u_correction_bound": const(config.correction_bound),
-                           "u_filter_bound": const(config.filter_bound)}, **a))
+                          {"npu_output": "npu_output", "history": "history", "motion": "motion", "display": "display"},
+                          {"u_scale": const(s), **dequantize, "u_correction_bound": const(config.correction_bound),
+                           "u_filter_bound": const(config.filter_bound), "u_filter_falloff": const(config.filter_falloff)},
+                          **a))
     return {
         "steps": steps,
         "end_of_frame": [],

@@ -40,7 +40,7 @@ from torch import nn
 
 from ..blocks import conv_stack
 from ..family import check_frame
-from ..taau import TAAUInputs, TAAUParams, blend, history_floor, steer_from_raw, taau_inputs
+from ..taau import TAAUInputs, TAAUParams, blend, filter_gain, history_floor, steer_from_raw, taau_inputs
 from .config import NTAAUConfig
 
 STAGE_ORDER = ("taau_gather", "steer", "taau_accumulate")
@@ -94,7 +94,8 @@ class Accumulate(nn.Module):
     def forward(self, inputs: TAAUInputs, raw):
         c = self.config
         floor = history_floor(inputs.hr_motion, c.history_gain_min, c.still_motion_px)
-        return blend(inputs, self.params, steer_from_raw(raw, c.correction_bound, floor, c.filter_bound, c.box_bound))
+        scale = filter_gain(inputs.hr_motion, c.filter_falloff)
+        return blend(inputs, self.params, steer_from_raw(raw, c.correction_bound, floor, c.filter_bound, c.box_bound, scale))
 
 
 class NTAAU(nn.Module):

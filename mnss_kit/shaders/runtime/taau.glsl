@@ -99,6 +99,22 @@ float filter_weight_from_raw(float raw, float filter_bound) {
     return filter_bound * tanh(raw);
 }
 
+// f (1 - f) per axis for the fractional part f of the HR motion `m` (ops.taau.resample_spread).
+vec2 resample_spread(vec2 m) {
+    vec2 f = m - floor(m);
+    return f * (1.0 - f);
+}
+
+// The display filter's weight scale at HR texel `hr` (ops.taau.filter_gain): it fades with the
+// history's resample spread; the motion is read only when it does.
+float filter_gain(highp sampler2D motion, ivec2 hr, int scale, float falloff) {
+    if (falloff <= 0.0) {
+        return 1.0;
+    }
+    vec2 spread = resample_spread(upsampled_motion_at(motion, hr, scale));
+    return exp(-falloff * (spread.x + spread.y));
+}
+
 // The least history gain at HR texel `hr` (ops.taau.history_floor); the motion is read only when
 // the floor fades with it.
 float history_floor(highp sampler2D motion, ivec2 hr, int scale, float history_gain_min, float still_motion_px) {

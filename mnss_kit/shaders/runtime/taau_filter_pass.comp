@@ -4,6 +4,7 @@
 //   in   npu_output   std430 uint[]  int8 NHWC (1, H, W, 8): the steering net's raw output
 //                                    (channels 3-5: the correction, 6-7: the filter weights)
 //        history      HR rgba16f     this frame's blend (rgb), as taau_accumulate_pass wrote it
+//        motion       LR rg32f       LR motion (the filter fades where the history was resampled)
 //   out  display      HR rgba8       the blend through the steered 3x3 filter, plus the correction
 precision highp float;
 precision highp int;
@@ -14,12 +15,15 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(std430, binding = 0) readonly buffer NpuOutput { uint npu_output[]; };
 layout(binding = 0) uniform highp sampler2D history;
+layout(binding = 1) uniform highp sampler2D motion;
 layout(rgba8, binding = 0) uniform writeonly highp image2D display;
 
+uniform int u_scale;
 uniform float u_q_scale;
 uniform int u_q_zero_point;
 uniform float u_correction_bound;
 uniform float u_filter_bound;
+uniform float u_filter_falloff;
 
 #include "display.glsl"
 #include "taau.glsl"
@@ -39,8 +43,9 @@ void main() {
     }
     vec3 correction = correction_from_raw(vec3(raw_at(hr, size.x, 3), raw_at(hr, size.x, 4), raw_at(hr, size.x, 5)),
                                           u_correction_bound);
-    float axis = filter_weight_from_raw(raw_at(hr, size.x, 6), u_filter_bound);
-    float diagonal = filter_weight_from_raw(raw_at(hr, size.x, 7), u_filter_bound);
+    float gain = filter_gain(motion, hr, u_scale, u_filter_falloff);
+    float axis = filter_weight_from_raw(raw_at(hr, size.x, 6), u_filter_bound) * gain;
+    float diagonal = filter_weight_from_raw(raw_at(hr, size.x, 7), u_filter_bound) * gain;
     vec3 filtered = display_filter_at(history, hr, axis, diagonal);
     imageStore(display, hr, encode_unorm8(vec4(corrected(filtered, correction), 1.0)));
 }

@@ -34,8 +34,7 @@ void main() {
     vec3 right = warped_history_at(history, motion, min(hr + ivec2(1, 0), size - 1), u_scale).rgb;
     vec3 up = warped_history_at(history, motion, max(hr - ivec2(0, 1), ivec2(0)), u_scale).rgb;
     vec3 down = warped_history_at(history, motion, min(hr + ivec2(0, 1), size - 1), u_scale).rgb;
-    vec2 f = m - floor(m);
-    vec2 spread = f * (1.0 - f);
+    vec2 spread = resample_spread(m);
     vec3 dxx = left + right - 2.0 * centre.rgb;
     vec3 dyy = up + down - 2.0 * centre.rgb;
     vec3 colour = centre.rgb - 0.5 * (spread.x * dxx + spread.y * dyy);
