@@ -98,8 +98,8 @@ class Accumulate(nn.Module):
     def forward(self, inputs: TAAUInputs, raw):
         c = self.config
         floor = history_floor(inputs.hr_motion, c.history_gain_min, c.still_motion_px)
-        scale = filter_gain(inputs.hr_motion, c.filter_falloff)
-        return blend(inputs, self.params, steer_from_raw(raw, c.correction_bound, floor, c.filter_bound, c.box_bound, scale))
+        fade = filter_gain(inputs.hr_motion, c.filter_falloff)
+        return blend(inputs, self.params, steer_from_raw(raw, c.correction_bound, floor, c.filter_bound, c.box_bound, fade))
 
 
 class NTAAU(nn.Module):
