@@ -116,9 +116,8 @@ def _taau_reproject(p, c: Call):
 
 
 def _taau_pack(p, c: Call):
-    return {"npu_input": p.taau_pack(c.read["color"], c.read["reprojected"], c.read["motion"], c.u("u_scale"),
-                                     c.u("u_max_weight"), bool(c.u("u_motion_input")), c.u("u_q_scale"),
-                                     c.u("u_q_zero_point"), c.profile)}
+    return {"npu_input": p.taau_pack(c.read["color"], c.read["reprojected"], c.u("u_scale"), c.u("u_max_weight"),
+                                     c.u("u_q_scale"), c.u("u_q_zero_point"), c.profile)}
 
 
 def _taau_accumulate(p, c: Call):

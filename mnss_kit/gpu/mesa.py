@@ -355,16 +355,14 @@ class MesaPasses:
         return self.read(out, "rgba16f", 4)
 
     @_in_own_context
-    def taau_pack(self, color, reprojected, motion, scale: int, max_weight: float, motion_input: bool, q_scale: float,
-                  q_zero_point: int, profile: str):
+    def taau_pack(self, color, reprojected, scale: int, max_weight: float, q_scale: float, q_zero_point: int, profile: str):
         h, w = color.shape[:2]
-        channels = 3 + 5 * scale * scale + (2 if motion_input else 0)
+        channels = 3 + 5 * scale * scale
         nbytes = h * w * channels
         words = -(-nbytes // 4)
         out = self.ctx.buffer(reserve=words * 4)
-        res = {"color": self.texture(color, "rgba16f"), "reprojected": self.texture(reprojected, "rgba16f"),
-               "motion": self.texture(motion, "rg32f"), "npu_input": out}
-        uni = {"u_scale": scale, "u_max_weight": float(max_weight), "u_motion_input": int(motion_input), "u_word_count": words,
+        res = {"color": self.texture(color, "rgba16f"), "reprojected": self.texture(reprojected, "rgba16f"), "npu_input": out}
+        uni = {"u_scale": scale, "u_max_weight": float(max_weight), "u_word_count": words,
                **P.quantize_uniforms(q_scale, q_zero_point, profile)}
         self.run("taau_pack_pass", (words,), res, uni)
         return np.frombuffer(out.read(), dtype=np.int8)[:nbytes].reshape(1, h, w, channels).copy()

@@ -155,14 +155,12 @@ class ReferencePasses:
         colour, weight = taau.reprojected_history(stored[..., :3], stored[..., 3:], motion, reset, scale, True, blur_penalty)
         return to_half(np.concatenate([colour, weight], axis=-1))
 
-    def taau_pack(self, color, reprojected, motion, scale: int, max_weight: float, motion_input: bool, q_scale: float,
-                  q_zero_point: int, profile: str):
-        """taau_pack_pass -> the int8 NPU input (1,h,w,3 + 5 s^2, + 2 with ``motion_input``): the LR
-        colour, then the clamped history, its weight / ``max_weight`` and the clamp distance
-        pixel-unshuffled, then the motion feature, quantized as ``ops.quant.quantize`` under ``profile``."""
+    def taau_pack(self, color, reprojected, scale: int, max_weight: float, q_scale: float, q_zero_point: int, profile: str):
+        """taau_pack_pass -> the int8 NPU input (1,h,w,3 + 5 s^2): the LR colour, then the clamped
+        history, its weight / ``max_weight`` and the clamp distance pixel-unshuffled, quantized as
+        ``ops.quant.quantize`` under ``profile``."""
         r = to_half(reprojected)
-        features = taau.steering_features(to_half(color), r[..., :3], r[..., 3:], scale, max_weight,
-                                          motion if motion_input else None)
+        features = taau.steering_features(to_half(color), r[..., :3], r[..., 3:], scale, max_weight)
         return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]
 
     def taau_accumulate(self, npu_output, color, reprojected, motion, jitter, scale: int, q_scale: float, q_zero_point: int,

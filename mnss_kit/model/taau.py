@@ -98,14 +98,6 @@ def filter_gain(hr_motion: torch.Tensor, falloff: float) -> torch.Tensor | float
     return torch.exp(-falloff * resample_spread(hr_motion).sum(dim=1, keepdim=True))
 
 
-def motion_feature(motion: torch.Tensor, scale: int) -> torch.Tensor:
-    """The LR ``motion`` (N, 2, h, w, LR pixels) as a steering feature (``ops.taau.motion_feature``):
-    each component in HR pixels, ``m / (1 + |m|)``, so still and slow surfaces keep their detail and
-    a fast turn stays within (-1, 1), the range an int8 input needs."""
-    m = motion * scale
-    return m / (1.0 + m.abs())
-
-
 def box_widening(raw: torch.Tensor, box_bound: float) -> torch.Tensor:
     """The clamp box's widening per side, in units of its span (``ops.taau.box_widening``):
     ``box_bound`` tanh where the raw value is positive, 0.5 tanh where it narrows the box, which at

@@ -147,30 +147,18 @@ def current_terms(colour: np.ndarray, jitter, scale: int, sigma: float):
     return samples, sample_weight, spatial, *neighbourhood_box(current, scale)
 
 
-def motion_feature(motion: np.ndarray, scale: int) -> np.ndarray:
-    """The LR ``motion`` (h, w, 2, LR pixels) as a steering feature: each component in HR pixels,
-    ``m / (1 + |m|)``, so still and slow surfaces keep their detail and a fast turn stays within
-    (-1, 1), the range an int8 input needs."""
-    m = np.asarray(motion, np.float32) * np.float32(scale)
-    return (m / (1.0 + np.abs(m))).astype(np.float32)
-
-
 def steering_features(colour: np.ndarray, history: np.ndarray, history_weight: np.ndarray, scale: int,
-                      max_weight: float, motion: np.ndarray | None = None) -> np.ndarray:
-    """The ``ntaau`` net's input (h, w, 3 + 5 s^2, and 2 more with ``motion``): the LR colour, then
-    the reprojected YCoCg ``history`` (H, W, 3) clamped to the box, its weight / ``max_weight`` and
-    the clamp distance, pixel-unshuffled (``ops.demodulation.pixel_unshuffle`` order), then
-    ``motion_feature`` of the LR ``motion`` (h, w, 2) when given."""
+                      max_weight: float) -> np.ndarray:
+    """The ``ntaau`` net's input (h, w, 3 + 5 s^2): the LR colour, then the reprojected YCoCg
+    ``history`` (H, W, 3) clamped to the box, its weight / ``max_weight`` and the clamp distance,
+    pixel-unshuffled (``ops.demodulation.pixel_unshuffle`` order)."""
     from .demodulation import pixel_unshuffle
 
     lo, hi = neighbourhood_box(rgb_to_ycocg(colour), scale)
     clamped = np.minimum(np.maximum(history, lo), hi)
     distance = np.abs(history - clamped).sum(axis=-1, keepdims=True)
     hr = np.concatenate([clamped, history_weight / np.float32(max_weight), distance], axis=-1)
-    features = [np.asarray(colour, np.float32), pixel_unshuffle(hr, scale)]
-    if motion is not None:
-        features.append(motion_feature(motion, scale))
-    return np.concatenate(features, axis=-1)
+    return np.concatenate([np.asarray(colour, np.float32), pixel_unshuffle(hr, scale)], axis=-1)
 
 
 @dataclass

@@ -60,7 +60,7 @@ CASES = {
                           ("color", "lr_fbeta", "lr_emissive", "depth", "motion", "hr_fbeta", "hr_normal", "hr_depth",
                            "hr_albedo", "hr_emissive"), float_gpu=True, recurrent=True, shipped="fusesr_x2_hybrid"),
     "ntaau": Case("ntaau", {"family": "ntaau", "scale": 2, "width": 8, "layers": 2, "filter_bound": 0.25, "box_bound": 1.5,
-                            "history_gain_min": 1.0, "still_motion_px": 1.0, "filter_falloff": 1.5, "motion_input": True},
+                            "history_gain_min": 1.0, "still_motion_px": 1.0, "filter_falloff": 1.5},
                   (f"frames={LR_FRAMES}", "hr_samples=1", "lr_size=[48,24]"),
                   {"taau_gather": "gpu", "steer": "npu", "taau_accumulate": "gpu"}, ("color", "motion"),
                   float_gpu=True, recurrent=True, shipped="ntaau_x2"),  # the default model

@@ -93,20 +93,17 @@ def test_a_steered_sequence_matches_the_reference(channels, still_motion_px, fil
         np.testing.assert_allclose(hwc(state["weight"]), ref_weight, atol=1e-4)
 
 
-@pytest.mark.parametrize("motion_input", [False, True])
-def test_the_steering_features_match_the_reference(motion_input):
+def test_the_steering_features_match_the_reference():
     """The ntaau net's input as the torch model gathers it, against ``ops.taau.steering_features``
     (what the bundle's pack pass quantizes)."""
     from mnss_kit.model.families import build_model
     from mnss_kit.model.ntaau.config import NTAAUConfig
 
     rng = np.random.default_rng(5)
-    scale, model = 2, build_model(NTAAUConfig(motion_input=motion_input))
+    scale, model = 2, build_model(NTAAUConfig())
     colour, jitter, motion = _frame(rng)
     state = {"history": nchw(rng.uniform(0, 1, (14, 18, 3)).astype(np.float32)),
              "weight": nchw(rng.uniform(0, 9, (14, 18, 1)).astype(np.float32))}
     inputs, features = model.taau_gather(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.zeros(1), state)
-    want = taau.steering_features(colour, hwc(inputs.history), hwc(inputs.history_weight), scale, model.params.max_weight,
-                                  motion if motion_input else None)
-    assert want.shape[-1] == model.config.npu_input_channels()
+    want = taau.steering_features(colour, hwc(inputs.history), hwc(inputs.history_weight), scale, model.params.max_weight)
     np.testing.assert_allclose(hwc(features), want, atol=TOLERANCE)

@@ -35,10 +35,6 @@ class NTAAUConfig:
     # resample spread sx, sy (model.taau.filter_gain): where a fractional fetch has just blurred the
     # history the filter blurs less (TAAU fades the history's weight there with its blur_penalty, 1.5)
     filter_falloff: float = 0.0
-    # true: the net also reads the LR motion, each HR-pixel component m as m / (1 + |m|)
-    # (model.taau.motion_feature): where and how fast the surface moved, which the history's weight
-    # and clamp distance show only in part
-    motion_input: bool = False
     # the clamp box widens by at most this times its span on each side (it narrows by at most 0.5:
     # to its centre)
     box_bound: float = 0.5
@@ -67,6 +63,5 @@ class NTAAUConfig:
         return STEER_CHANNELS + (FILTER_CHANNELS if self.filter_bound > 0 else 0)
 
     def npu_input_channels(self) -> int:
-        """LR colour (3), clamped history (3 s^2), history weight (s^2), clamp distance (s^2) and,
-        with ``motion_input``, the motion (2)."""
-        return 3 + 5 * self.scale * self.scale + (2 if self.motion_input else 0)
+        """LR colour (3), clamped history (3 s^2), history weight (s^2) and clamp distance (s^2)."""
+        return 3 + 5 * self.scale * self.scale

@@ -14,8 +14,7 @@ def fixed_macs(c) -> dict[str, float]:
     reproject = 2 * BILINEAR + 2 + 4 * BILINEAR + 3 * 5 + 2 * 2 + TRANSCENDENTAL  # motion up, warp 3+1, blur undone, weight
     samples = 9 * (3 + 1 + 1) + 2 * 3 * TRANSCENDENTAL * lr  # 9 taps of colour and weight; separable Gaussian
     return {
-        # bicubic, YCoCg, box, features (with motion_input: scale, |m|, 1 + |m|, the division per component)
-        "taau_gather": reproject + samples + 3 * BICUBIC + 9 + 9 * 3 * 2 * lr + 3 + 6 + 3 + (2 * 4 * lr if c.motion_input else 0.0),
+        "taau_gather": reproject + samples + 3 * BICUBIC + 9 + 9 * 3 * 2 * lr + 3 + 6 + 3,  # bicubic, YCoCg, box, features
         "steer": 0.0,
         # activations, box, clamp, blend, RGB; the motion-dependent floor, the display filter
         "taau_accumulate": 6 * TRANSCENDENTAL + 3 * 4 + 6 + 3 * 3 + 4 + 6 + history_floor(c) + display_filter(c),

@@ -31,7 +31,7 @@ def bundle_gpu_plan(config: NTAAUConfig, state_dict: dict, lr_size: tuple[int, i
 
 
 def input_words(config: NTAAUConfig, lr_size: tuple[int, int]) -> int:
-    """32-bit words of the int8 NHWC (1, h, w, 3 + 5 s^2, + 2 with motion_input) NPU input."""
+    """32-bit words of the int8 NHWC (1, h, w, 3 + 5 s^2) NPU input."""
     return -(-lr_size[0] * lr_size[1] * config.npu_input_channels() // 4)
 
 
@@ -54,8 +54,8 @@ def resources(config: NTAAUConfig, lr_size: tuple[int, int]) -> list[dict]:
         _tex("motion", lr, P.INPUT_FORMATS["motion"], "input", "LR motion in LR pixels, pointing to the previous frame", 2),
         _tex("history", hr, P.HISTORY_FORMAT, "state", "the previous blend before the correction (rgb) and its accumulated weight (a)", 4),
         _tex("reprojected", hr, "rgba16f", "intermediate", "the history warped to this frame (YCoCg) and its weight", 4),
-        _buf("npu_input", input_words(config, lr_size), f"int8 NHWC (1, h, w, {config.npu_input_channels()}) NPU input at LR, "
-             "4 bytes per word, little-endian"),
+        _buf("npu_input", input_words(config, lr_size), "int8 NHWC (1, h, w, 3 + 5 s^2) NPU input at LR, 4 bytes per word, "
+             "little-endian"),
         _buf("npu_output", word_count(lr_size, config.scale, config.steer_channels()),
              f"int8 NHWC (1, H, W, {config.steer_channels()}) raw steering from the NPU, 4 bytes per word, little-endian"),
         _tex("display", hr, P.DISPLAY_FORMAT, "output", "the frame to show (8-bit codes)", 3),
@@ -75,9 +75,8 @@ def schedule(config: NTAAUConfig, lr_size: tuple[int, int], npu: dict, profile: 
              {"history": "history", "motion": "motion", "reprojected": "reprojected"},
              {"u_scale": const(s), "u_reset": per_frame("reset"), "u_blur_penalty": const(params.blur_penalty)}, **a),
         step("taau_pack_pass", "steering features + pack", "taau_gather",
-             {"color": "color", "reprojected": "reprojected", "motion": "motion", "npu_input": "npu_input"},
-             {"u_scale": const(s), "u_max_weight": const(params.max_weight), "u_motion_input": const(int(config.motion_input)),
-              "u_word_count": const(words),
+             {"color": "color", "reprojected": "reprojected", "npu_input": "npu_input"},
+             {"u_scale": const(s), "u_max_weight": const(params.max_weight), "u_word_count": const(words),
               **quantize_uniforms(*npu["input_q"], profile)}, words=words, **a),
         {"kind": "npu", "label": "steering net", "stage": "steer", "model": npu["model"],
          "inputs": {npu["input"]: "npu_input"}, "outputs": {npu["output"]: "npu_output"}},

@@ -40,8 +40,7 @@ from torch import nn
 
 from ..blocks import conv_stack
 from ..family import check_frame
-from ..taau import (TAAUInputs, TAAUParams, blend, filter_gain, history_floor, motion_feature, steer_from_raw,
-                    taau_inputs)
+from ..taau import TAAUInputs, TAAUParams, blend, filter_gain, history_floor, steer_from_raw, taau_inputs
 from .config import NTAAUConfig
 
 STAGE_ORDER = ("taau_gather", "steer", "taau_accumulate")
@@ -53,27 +52,24 @@ class Gather(nn.Module):
 
     placement = "gpu"
 
-    def __init__(self, scale: int, params: TAAUParams, motion_input: bool = False):
+    def __init__(self, scale: int, params: TAAUParams):
         super().__init__()
-        self.scale, self.params, self.motion_input = scale, params, motion_input
+        self.scale, self.params = scale, params
 
     def forward(self, color, jitter, motion, reset, state):
-        """-> (TAAUInputs, features (N, 3 + 5 s^2 (+ 2 with motion_input), h, w))."""
+        """-> (TAAUInputs, features (N, 3 + 5 s^2, h, w))."""
         inputs = taau_inputs(color, jitter, motion, reset, state, self.scale, self.params)
         clamped = torch.minimum(torch.maximum(inputs.history, inputs.lo), inputs.hi)
         distance = (inputs.history - clamped).abs().sum(dim=1, keepdim=True)
         weight = inputs.history_weight / self.params.max_weight
         hr = torch.cat([clamped, weight, distance], dim=1)
-        features = [color, F.pixel_unshuffle(hr, self.scale)]
-        if self.motion_input:
-            features.append(motion_feature(motion, self.scale))
-        return inputs, torch.cat(features, dim=1)
+        return inputs, torch.cat([color, F.pixel_unshuffle(hr, self.scale)], dim=1)
 
 
 class SteerNet(nn.Module):
     """The NPU part: Conv2d (bias), ReLU, PixelShuffle; fx-traceable.
 
-    ``forward(features)``: (N, ``npu_input_channels()``, h, w) -> raw steering (N, 6 or 8, H, W)."""
+    ``forward(features)``: (N, 3 + 5 s^2, h, w) -> raw steering (N, 6 or 8, H, W)."""
 
     placement = "npu"
 
@@ -110,7 +106,7 @@ class NTAAU(nn.Module):
         self.config = config
         self.scale = s = config.scale
         self.params = TAAUParams(alpha=config.alpha)
-        self.taau_gather = Gather(s, self.params, config.motion_input)
+        self.taau_gather = Gather(s, self.params)
         self.steer = SteerNet(s, config.npu_input_channels(), config.width, config.layers, config.steer_channels())
         self.taau_accumulate = Accumulate(self.params, config)
 

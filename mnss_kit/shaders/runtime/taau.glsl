@@ -115,13 +115,6 @@ float filter_gain(highp sampler2D motion, ivec2 hr, int scale, float falloff) {
     return exp(-falloff * (spread.x + spread.y));
 }
 
-// The LR motion `m` (LR pixels) as a steering feature (ops.taau.motion_feature): each component in
-// HR pixels, m / (1 + |m|).
-vec2 motion_feature(vec2 m, int scale) {
-    vec2 hr = m * float(scale);
-    return hr / (1.0 + abs(hr));
-}
-
 // The least history gain at HR texel `hr` (ops.taau.history_floor); the motion is read only when
 // the floor fades with it.
 float history_floor(highp sampler2D motion, ivec2 hr, int scale, float history_gain_min, float still_motion_px) {

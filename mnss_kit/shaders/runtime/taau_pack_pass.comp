@@ -2,11 +2,9 @@
 // taau_pack_pass: one invocation per 32-bit word of the NPU input tensor.
 //   in   color        LR rgba16f     jittered LR colour, display values
 //        reprojected  HR rgba16f     taau_reproject_pass
-//        motion       LR rg32f       LR motion, LR pixels (read with u_motion_input)
-//   out  npu_input    std430 uint[]  int8 NHWC (1, h, w, 3 + 5 s^2, + 2 with u_motion_input): the LR
-//                                    colour, then the HR clamped history (YCoCg), its weight /
-//                                    u_max_weight and the clamp distance, pixel-unshuffled (channel
-//                                    k s^2 + dy s + dx), then the motion feature
+//   out  npu_input    std430 uint[]  int8 NHWC (1, h, w, 3 + 5 s^2): the LR colour, then the HR
+//                                    clamped history (YCoCg), its weight / u_max_weight and the clamp
+//                                    distance, pixel-unshuffled (channel k s^2 + dy s + dx)
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -15,12 +13,10 @@ layout(local_size_x = 64) in;
 
 layout(binding = 0) uniform highp sampler2D color;
 layout(binding = 1) uniform highp sampler2D reprojected;
-layout(binding = 2) uniform highp sampler2D motion;
 layout(std430, binding = 0) writeonly buffer NpuInput { uint npu_input[]; };
 
 uniform int u_scale;
 uniform float u_max_weight;
-uniform int u_motion_input;
 uniform int u_word_count;
 uniform float u_q_scale;
 uniform float u_q_reciprocal;
@@ -38,7 +34,6 @@ float feature(ivec2 p, int c, int scale) {
     if (c < 3) return texelFetch(color, p, 0)[c];
     c -= 3;
     int s2 = scale * scale;
-    if (c >= HR_FEATURES * s2) return motion_feature(texelFetch(motion, p, 0).xy, scale)[c - HR_FEATURES * s2];
     int sub = c % s2;
     ivec2 hr = p * scale + ivec2(sub % scale, sub / scale);
     ivec2 size = textureSize(color, 0);
@@ -67,7 +62,7 @@ void main() {
     }
     QuantParams q = QuantParams(u_q_scale, u_q_reciprocal, u_q_use_reciprocal != 0, u_q_rounding, u_q_zero_point);
     ivec2 lr_size = textureSize(color, 0);
-    int channels = 3 + HR_FEATURES * u_scale * u_scale + (u_motion_input != 0 ? 2 : 0);
+    int channels = 3 + HR_FEATURES * u_scale * u_scale;
     int total = lr_size.x * lr_size.y * channels;
     uint word = 0u;
     for (int k = 0; k < 4; k++) {
