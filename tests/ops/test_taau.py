@@ -106,4 +106,5 @@ def test_the_steering_features_match_the_reference():
              "weight": nchw(rng.uniform(0, 9, (14, 18, 1)).astype(np.float32))}
     inputs, features = model.taau_gather(nchw(colour), torch.from_numpy(jitter)[None], nchw(motion), torch.zeros(1), state)
     want = taau.steering_features(colour, hwc(inputs.history), hwc(inputs.history_weight), scale, model.params.max_weight)
+    assert want.shape[-1] == model.config.npu_input_channels()  # what the pack pass and the bundle's buffer are sized by
     np.testing.assert_allclose(hwc(features), want, atol=TOLERANCE)
