@@ -3,18 +3,28 @@
 A variant rewrites a sequence's LR inputs the way a game capture degrades them, so a model can be
 tested (and trained) on them; the HR buffers, which only the loss and the metrics read, are kept:
 
-    ldr8           colour in display space, rounded to 8 bits (the reference converted to display
-                   space too, unrounded): an LDR capture
-    depth8/16      depth as reversed hardware depth rounded to 8 or 16 bits
-    motion_noise   LR motion plus Gaussian noise of MOTION_NOISE_PX pixels (seeded per sequence)
-    camera_motion  LR motion recomputed from depth and the camera matrices alone: moving objects
-                   get the motion of the camera, as in engines without per-object motion vectors
+    ldr8              colour in display space, rounded to 8 bits (the reference converted to display
+                      space too, unrounded): an LDR capture
+    depth8/16         depth as reversed hardware depth rounded to 8 or 16 bits
+    depth_near_guess  depth as reversed hardware depth whose recorded near plane is
+                      NEAR_GUESS_FACTOR times the true one: a capture whose near plane is unknown
+    motion_rigid      a share of moving objects move as one rigid body (skinned meshes whose
+                      velocity comes from their root; ``engine_motion.rigid``)
+    motion_absent     a share of moving objects have motion 0 (particles, transparents, objects
+                      outside the velocity pass; ``engine_motion.absent``)
+    camera_motion     LR motion recomputed from depth and the camera matrices alone: moving objects
+                      get the motion of the camera, as in engines without per-object motion vectors
+    motion_dilate     motion of the nearest-depth pixel of each 3x3 (Unreal's and FSR2's convention)
+    motion_noise      LR motion plus Gaussian noise of MOTION_NOISE_PX pixels (seeded per sequence)
+    motion_pack8      motion packed in 8-bit pairs, u = R/255 + G/255^2 (``engine_motion.pack_motion8``)
+    motion_half       motion stored as 16-bit floats in UV units
 
-Variants apply in the order above except that ``camera_motion`` reads the unquantized depth, as
-an engine computes it before writing depth out.  The array functions (:func:`ldr8_colour`,
-:func:`hardware_depth_bits`, :func:`noisy_motion`) are also the training augmentations'
-(``train/augment.py``).  Un-jittered or Halton input are render settings
-(``mnss-kit render CONFIG --set jitter=center``), not variants.
+``engine`` names the preset ENGINE: everything above a typical game capture does at once.  Un-jittered
+or Halton input are render settings (``mnss-kit render CONFIG --set jitter=center``), not variants;
+``eval.variant_sets`` pairs the preset with both.  Motion variants apply in the order above, to the
+unquantized depth and motion, as an engine computes them before writing them out.  The array
+functions (:func:`ldr8_colour`, :func:`hardware_depth_bits`, :func:`noisy_motion` and
+``engine_motion``) are also the training augmentations' (``dataset/augment.py``).
 """
 
 from __future__ import annotations
@@ -28,20 +38,35 @@ import numpy as np
 from ..errors import UserError
 from ..fileio import atomic_directory
 from ..ops import colour
+from . import engine_motion
 from . import format as fmt
 
-VARIANTS = ("ldr8", "depth8", "depth16", "motion_noise", "camera_motion")
+VARIANTS = ("ldr8", "depth8", "depth16", "depth_near_guess", "motion_rigid", "motion_absent", "camera_motion",
+            "motion_dilate", "motion_noise", "motion_pack8", "motion_half")
+ENGINE = ("ldr8", "depth8", "depth_near_guess", "motion_rigid", "motion_absent", "motion_dilate", "motion_pack8")
+PRESETS = {"engine": ENGINE}
+MOTION_VARIANTS = ("motion_rigid", "motion_absent", "camera_motion", "motion_dilate", "motion_noise",
+                   "motion_pack8", "motion_half")
+EXCLUSIVE = (("depth8", "depth16", "one depth precision"), ("motion_pack8", "motion_half", "one motion packing"),
+             ("camera_motion", "motion_rigid", "camera_motion already drops every object's own motion"),
+             ("camera_motion", "motion_absent", "camera_motion already drops every object's own motion"))
 MOTION_NOISE_PX = 0.25
+NEAR_GUESS_FACTOR = 4.0
 
 
 def check_variants(names: list[str]) -> list[str]:
-    """``names`` in application order, after checking each is a variant and none repeats."""
-    unknown = [n for n in names if n not in VARIANTS]
+    """``names`` (presets expanded) in application order, after checking each is a variant, none
+    repeats and no two exclude each other."""
+    expanded = [v for n in names for v in PRESETS.get(n, (n,))]
+    unknown = [n for n in expanded if n not in VARIANTS]
     if unknown:
-        raise UserError(f"unknown input variant '{unknown[0]}' (one of {', '.join(VARIANTS)})")
-    if len(set(names)) != len(names) or ("depth8" in names and "depth16" in names):
-        raise UserError(f"input variants {', '.join(names)}: each at most once, and one depth precision")
-    return [n for n in VARIANTS if n in names]
+        raise UserError(f"unknown input variant '{unknown[0]}' (one of {', '.join(VARIANTS + tuple(PRESETS))})")
+    if len(set(expanded)) != len(expanded):
+        raise UserError(f"input variants {', '.join(expanded)}: each at most once")
+    for a, b, why in EXCLUSIVE:
+        if a in expanded and b in expanded:
+            raise UserError(f"input variants {a} and {b} do not go together: {why}")
+    return [n for n in VARIANTS if n in expanded]
 
 
 def write_variant_dataset(src: Path, out: Path, names: list[str], overwrite: bool = False) -> list[Path]:
@@ -60,26 +85,55 @@ def write_variant(src: Path, dst: Path, names: list[str]) -> None:
     shutil.copytree(src, dst, ignore=shutil.ignore_patterns(".cache"))
     rng = np.random.default_rng(zlib.crc32(meta.name.encode()))
     bits = 8 if "depth8" in names else 16 if "depth16" in names else None
+    hardware = bits is not None or "depth_near_guess" in names
+    cells = engine_motion.object_cells(meta.name)
     for i in range(meta.frame_count):
         if "ldr8" in names:
             lr = fmt.canonical_colour(fmt.read_raw_buffer(src, "lr", "color", i), meta)
             fmt.write_buffer(dst, "lr", "color", i, ldr8_colour(lr))
             fmt.write_buffer(dst, "hr", "reference", i, fmt.canonical_colour(fmt.read_raw_buffer(src, "hr", "reference", i), meta))
-        if "camera_motion" in names:
-            fmt.write_buffer(dst, "lr", "motion", i, camera_motion(src, meta, i) if i > 0 else fmt.read_raw_buffer(src, "lr", "motion", i))
-        if "motion_noise" in names:
-            motion = fmt.read_raw_buffer(dst, "lr", "motion", i)
-            fmt.write_buffer(dst, "lr", "motion", i, noisy_motion(motion, rng, MOTION_NOISE_PX / meta.motion.scale))
-        if bits:
+        if any(n in names for n in MOTION_VARIANTS):
+            motion = engine_inputs_motion(src, meta, i, names, rng, cells)
+            fmt.write_buffer(dst, "lr", "motion", i, _stored_motion(motion, meta, meta.lr_size).astype(np.float32))
+        if hardware:
             fmt.write_buffer(dst, "lr", "depth", i, reversed_depth(fmt.read_raw_buffer(src, "lr", "depth", i), meta, bits))
     changes = {"scene": {**meta.scene, "input_variants": names}}
     if "ldr8" in names:
         changes.update(color_space="display", exposure=1.0)
-    if bits:
+    if hardware:
         changes.update(reverse_z=True, depth_encoding="hardware")
-        for i in range(meta.frame_count):  # one reverse_z describes both resolutions: HR depth converted, unrounded
-            fmt.write_buffer(dst, "hr", "depth", i, reversed_depth(fmt.read_raw_buffer(src, "hr", "depth", i), meta))
+        if "depth" in meta.buffers.get("hr", []):
+            for i in range(meta.frame_count):  # one reverse_z describes both resolutions: HR depth converted, unrounded
+                fmt.write_buffer(dst, "hr", "depth", i, reversed_depth(fmt.read_raw_buffer(src, "hr", "depth", i), meta))
+    if "depth_near_guess" in names:
+        changes.update(near=meta.near * NEAR_GUESS_FACTOR)
     fmt.write_meta(dst, fmt.replace_meta(meta, **changes))
+
+
+def engine_inputs_motion(src: Path, meta: fmt.SequenceMeta, index: int, names: list[str], rng: np.random.Generator,
+                         cells: np.ndarray) -> np.ndarray:
+    """Canonical LR motion of frame ``index`` with the motion variants of ``names`` applied in order."""
+    motion = fmt.read_buffer(src, meta, "lr", "motion", index)
+    needs_camera = any(n in names for n in ("camera_motion", "motion_rigid", "motion_absent"))
+    camera = motion
+    if needs_camera and index > 0:  # frame 0 has no previous camera: its motion is kept
+        camera = fmt.canonical_motion(camera_motion(src, meta, index), meta, meta.lr_size)
+    if "camera_motion" in names:
+        motion = camera
+    labels, count = engine_motion.moving_objects(motion, camera)
+    if "motion_rigid" in names:
+        motion = engine_motion.rigid(motion, engine_motion.objects_of_kind(labels, count, cells, "rigid"))
+    if "motion_absent" in names:
+        motion = engine_motion.absent(motion, engine_motion.objects_of_kind(labels, count, cells, "absent"))
+    if "motion_dilate" in names:
+        motion = engine_motion.dilated(motion, fmt.read_buffer(src, meta, "lr", "depth", index))
+    if "motion_noise" in names:
+        motion = noisy_motion(motion, rng, MOTION_NOISE_PX)
+    if "motion_pack8" in names:
+        motion = engine_motion.packed8(motion)
+    if "motion_half" in names:
+        motion = engine_motion.half_float(motion)
+    return motion
 
 
 def ldr8_colour(display: np.ndarray) -> np.ndarray:

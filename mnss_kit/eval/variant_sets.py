@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..dataset.variants import ENGINE
+
 VARIANTS = {
     "mnss": ("mnss", [], "the toolkit's own inputs: MNSS jitter, float colour, depth and motion"),
     "halton": ("halton", [], "Halton (2, 3) jitter, as TAA in most engines"),
@@ -17,6 +19,9 @@ VARIANTS = {
     "depth8": ("mnss", ["depth8"], "8-bit reversed depth"),
     "motion_noise": ("mnss", ["motion_noise"], "motion vectors with 0.25 px Gaussian error"),
     "camera_motion": ("mnss", ["camera_motion"], "camera motion only (no per-object motion vectors)"),
+    "engine": ("center", list(ENGINE), "as an engine sends it: no jitter, 8-bit LDR colour, 8-bit reversed depth with a "
+               "guessed near plane, motion packed in 8-bit pairs, dilated, rigid on skinned objects, absent on some"),
+    "engine_halton": ("halton", list(ENGINE), "the engine variant with Halton (2, 3) jitter"),
 }
 
 
