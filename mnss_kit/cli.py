@@ -24,6 +24,7 @@ COMMANDS = {
     "models": "mnss_kit.model.command",
     "train": "mnss_kit.train.command",
     "eval": "mnss_kit.eval.command",
+    "finetune": "mnss_kit.finetune.command",
     "quantize": "mnss_kit.quantize.command",
     "split": "mnss_kit.split.command",
     "export": "mnss_kit.export.command",

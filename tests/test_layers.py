@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 PKG = Path(__file__).resolve().parent.parent / "mnss_kit"
-STAGES = ["render", "dataset", "model", "train", "eval", "quantize", "split", "export", "emulate", "bench", "stress", "report"]
+STAGES = ["render", "dataset", "model", "train", "eval", "finetune", "quantize", "split", "export", "emulate", "bench", "stress", "report"]
 # Stages that may be imported from anywhere: shared foundations, not pipeline steps.
 SHARED = {"ops", "metrics", "config", "errors", "fileio", "resources", "shaders", "gpu"}
 # The on-disk dataset format is a contract: the renderer writes it, every later stage reads it.

@@ -9,7 +9,7 @@ HELP = "check, describe, cache or import a dataset (data check | info | cache DI
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from .variants import VARIANTS
+    from .variants import PRESETS, VARIANTS
 
     sub = parser.add_subparsers(dest="data_command", metavar="ACTION", required=True)
     p = sub.add_parser(
@@ -43,13 +43,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     p = sub.add_parser(
         "variant",
-        help="rewrite a dataset's LR inputs as engines send them (8-bit colour, 8/16-bit depth, noisy or camera-only motion)",
+        help="rewrite a dataset's LR inputs as engines send them (8-bit colour and depth, packed, dilated or wrong motion)",
         description="Write a copy of a dataset with input variants applied (mnss_kit/dataset/variants.py says what each "
         "does); the HR buffers are kept.  Un-jittered or Halton input: mnss-kit render CONFIG --set jitter=center.",
     )
     p.add_argument("src", type=Path, help="dataset directory or one sequence directory")
     p.add_argument("--out", type=Path, required=True, help="output dataset directory (must be empty or absent)")
-    p.add_argument("--apply", nargs="+", required=True, metavar="VARIANT", help=f"one or more of: {', '.join(VARIANTS)}")
+    p.add_argument("--apply", nargs="+", required=True, metavar="VARIANT", help=f"one or more of: {', '.join(VARIANTS)}; or a preset: {', '.join(PRESETS)}")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
 
 
