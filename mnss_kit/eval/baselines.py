@@ -8,6 +8,9 @@ evaluation loop runs these exactly like the model.
 ``TAAU``     temporal anti-aliasing upsampling in the style of Karis 2014
              (Unreal Engine 4), :mod:`mnss_kit.model.taau` with no steering:
              the same accumulation the ``ntaau`` family steers.
+``FSR2``     an FSR2-class temporal upscaler (depth-clip disocclusion, thin-feature locks,
+             Lanczos reconstruction, YCoCg variance clamp, optional RCAS):
+             :mod:`mnss_kit.ops.fsr2`, run on the numpy reference itself.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ import torch
 import torch.nn.functional as F
 
 from ..model.taau import TAAUInputs, TAAUParams, bicubic_upsample, blend, taau_inputs
+from ..ops.fsr2 import FSR2Params, fsr2_frame
 
 
 class Bicubic:
@@ -65,7 +69,39 @@ class TAAU:
         return output, inputs, new_state
 
 
-BASELINES = {"bicubic": Bicubic, "taau": TAAU}
+class FSR2:
+    """FSR2-class temporal upscaler (:mod:`mnss_kit.ops.fsr2`; keyword arguments are its
+    :class:`~mnss_kit.ops.fsr2.FSR2Params`).  Each batch element runs through the numpy reference
+    (one definition): tensors go to numpy and back, the state is a list of ``FSR2State``."""
+
+    def __init__(self, scale: int, **params):
+        self.scale = int(scale)
+        self.params = FSR2Params(**params)
+
+    def __call__(self, frame: dict, state):
+        color = frame["color"]
+        n = color.shape[0]
+        reset = frame.get("reset")
+        resets = [False] * n if reset is None else [bool(r) for r in reset.detach().cpu().numpy() > 0.5]
+        reactive = frame.get("reactive")
+        states = [None] * n if state is None else state
+        outputs, next_states = [], []
+        for i in range(n):
+            output, next_state = fsr2_frame(
+                _hwc(color[i]), _hwc(frame["depth"][i]), _hwc(frame["motion"][i]),
+                frame["jitter"][i].detach().cpu().numpy(), states[i], self.scale, self.params, resets[i],
+                None if reactive is None else _hwc(reactive[i]))
+            outputs.append(torch.from_numpy(output).permute(2, 0, 1))
+            next_states.append(next_state)
+        return torch.stack(outputs).to(color), {}, next_states
+
+
+def _hwc(x: torch.Tensor):
+    """``(C, H, W)`` tensor -> ``(H, W, C)`` float32 numpy."""
+    return x.detach().to(torch.float32).permute(1, 2, 0).cpu().numpy()
+
+
+BASELINES = {"bicubic": Bicubic, "taau": TAAU, "fsr2": FSR2}
 
 
 def baseline_methods(scale: int, names=("bicubic", "taau")) -> dict:

@@ -134,6 +134,28 @@ def _taau_filter(p, c: Call):
     return {"display": display}
 
 
+def _fsr2_reconstruct(p, c: Call):
+    dilated, previous_depth = p.fsr2_reconstruct(c.read["depth"], c.read["motion"])
+    return {"dilated": dilated, "previous_depth": previous_depth}
+
+
+def _fsr2_depth_clip(p, c: Call):
+    params = P.fsr2_params_from_uniforms(c.uniforms)
+    return {"analysis": p.fsr2_depth_clip(c.read["dilated"], c.read["color"], c.read["previous_depth"], params)}
+
+
+def _fsr2_accumulate(p, c: Call):
+    r = c.read
+    history, locks, previous_depth = p.fsr2_accumulate(
+        r["color"], r["dilated"], r["analysis"], r["history"], r["locks"], r["reactive"] if c.u("u_use_reactive") else None,
+        r["previous_depth"], c.offset, c.u("u_scale"), bool(c.u("u_reset")), P.fsr2_params_from_uniforms(c.uniforms))
+    return {"next_history": history, "next_locks": locks, "previous_depth": previous_depth}
+
+
+def _fsr2_rcas(p, c: Call):
+    return {"output_image": p.fsr2_rcas(c.read["image"], c.u("u_sharpness"))}
+
+
 # pass name -> (backend, call) -> {image or buffer binding written: array}
 PASS_CALLS: dict[str, Callable[[object, Call], dict]] = {
     "warp_pass": _warp,
@@ -151,6 +173,10 @@ PASS_CALLS: dict[str, Callable[[object, Call], dict]] = {
     "taau_pack_pass": _taau_pack,
     "taau_accumulate_pass": _taau_accumulate,
     "taau_filter_pass": _taau_filter,
+    "fsr2_reconstruct_pass": _fsr2_reconstruct,
+    "fsr2_depth_clip_pass": _fsr2_depth_clip,
+    "fsr2_accumulate_pass": _fsr2_accumulate,
+    "fsr2_rcas_pass": _fsr2_rcas,
 }
 
 

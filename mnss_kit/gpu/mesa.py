@@ -396,6 +396,51 @@ class MesaPasses:
         self.run("taau_filter_pass", (hw, hh), res, uni)
         return self.read(display, "rgba8", 3)
 
+    # -- fsr2 ----------------------------------------------------------------------------------
+    @_in_own_context
+    def fsr2_reconstruct(self, depth, motion):
+        h, w = depth.shape[:2]
+        dilated = self.empty((w, h), "rgba32f")
+        previous_depth = self.ctx.buffer(bytes(4 * h * w))  # cleared, as fsr2_accumulate_pass leaves it
+        res = {"depth": self.texture(depth, "r32f"), "motion": self.texture(motion, "rg32f"), "dilated": dilated,
+               "previous_depth": previous_depth}
+        self.run("fsr2_reconstruct_pass", (w, h), res, {})
+        return self.read(dilated, "rgba32f", 4), np.frombuffer(previous_depth.read(), np.uint32).copy()
+
+    @_in_own_context
+    def fsr2_depth_clip(self, dilated, color, previous_depth, params):
+        h, w = dilated.shape[:2]
+        analysis = self.empty((w, h), "rgba32f")
+        res = {"dilated": self.texture(dilated, "rgba32f"), "color": self.texture(color, "rgba16f"),
+               "previous_depth": self.ctx.buffer(np.ascontiguousarray(previous_depth, np.uint32).tobytes()), "analysis": analysis}
+        self.run("fsr2_depth_clip_pass", (w, h), res, P.fsr2_uniforms(params))
+        return self.read(analysis, "rgba32f", 4)
+
+    @_in_own_context
+    def fsr2_accumulate(self, color, dilated, analysis, history, locks, reactive, previous_depth, jitter, scale: int,
+                        reset: bool, params):
+        hh, hw = history.shape[:2]
+        next_history, next_locks = self.empty((hw, hh), "rgba16f"), self.empty((hw, hh), "rgba16f")
+        buffer = self.ctx.buffer(np.ascontiguousarray(previous_depth, np.uint32).tobytes())
+        res = {"color": self.texture(color, "rgba16f"), "dilated": self.texture(dilated, "rgba32f"),
+               "analysis": self.texture(analysis, "rgba32f"), "history": self.texture(history, "rgba16f"),
+               "locks": self.texture(locks, "rgba16f"),
+               "reactive": self._placeholder() if reactive is None else self.texture(reactive, "r32f"),
+               "next_history": next_history, "next_locks": next_locks, "previous_depth": buffer}
+        uni = {**P.fsr2_uniforms(params), "u_scale": scale, "u_jitter": _vec2(jitter), "u_reset": int(bool(reset)),
+               "u_use_reactive": int(reactive is not None)}
+        self.run("fsr2_accumulate_pass", (hw, hh), res, uni)
+        return (self.read(next_history, "rgba16f", 4), self.read(next_locks, "rgba16f", 2),
+                np.frombuffer(buffer.read(), np.uint32).copy())
+
+    @_in_own_context
+    def fsr2_rcas(self, image, sharpness: float):
+        hh, hw = image.shape[:2]
+        out = self.empty((hw, hh), "rgba16f")
+        self.run("fsr2_rcas_pass", (hw, hh), {"image": self.texture(image, "rgba16f"), "output_image": out},
+                 {"u_sharpness": float(np.float32(sharpness))})
+        return self.read(out, "rgba16f", 3)
+
 
 def _packed_int8(npu_output) -> bytes:
     """An int8 NHWC NPU output as the bytes of a std430 uint[] buffer (zero-padded to whole words)."""

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..ops.fsr2 import FSR2Params
 from ..ops.runtimes import get_runtime
 
 # Storage formats of the frame inputs and of the state kept between frames.
@@ -170,6 +171,34 @@ PASSES = {
             ("u_scale", "u_q_scale", "u_q_zero_point", "u_correction_bound", "u_filter_bound", "u_filter_falloff"),
             exact=False,
         ),
+        # fsr2: the FSR2-class baseline upscaler (ops.fsr2), GPU only; float paths (sin, sqrt)
+        Pass(
+            "fsr2_reconstruct_pass", (8, 8, 1), "lr",
+            (_s("depth", 0, "r32f"), _s("motion", 1, "rg32f"), _i("dilated", 0, "rgba32f"), _b("previous_depth", 0, "uint[]")),
+            (),
+        ),
+        Pass(
+            "fsr2_depth_clip_pass", (8, 8, 1), "lr",
+            (_s("dilated", 0, "rgba32f"), _s("color", 1, "rgba16f"), _b("previous_depth", 0, "uint[]"),
+             _i("analysis", 0, "rgba32f")),
+            ("u_depth_tolerance", "u_slope_factor", "u_lock_contrast"),
+            exact=False,
+        ),
+        Pass(
+            "fsr2_accumulate_pass", (8, 8, 1), "hr",
+            (_s("color", 0, "rgba16f"), _s("dilated", 1, "rgba32f"), _s("analysis", 2, "rgba32f"),
+             _s("history", 3, HISTORY_FORMAT), _s("locks", 4, "rgba16f"), _s("reactive", 5, "r32f"),
+             _i("next_history", 0, HISTORY_FORMAT), _i("next_locks", 1, "rgba16f"), _b("previous_depth", 0, "uint[]")),
+            ("u_scale", "u_jitter", "u_reset", "u_use_reactive", "u_max_weight", "u_gamma", "u_resample_penalty",
+             "u_min_sample_weight", "u_lock_decay", "u_lock_luma_tolerance"),
+            exact=False,
+        ),
+        Pass(
+            "fsr2_rcas_pass", (8, 8, 1), "hr",
+            (_s("image", 0, HISTORY_FORMAT), _i("output_image", 0, "rgba16f")),
+            ("u_sharpness",),
+            exact=False,
+        ),
     )
 }
 
@@ -207,3 +236,25 @@ def quantize_uniforms(scale: float, zero_point: int, profile) -> dict:
         "u_q_rounding": ROUNDING_CODES[p.quantize_rounding],
         "u_q_zero_point": int(zero_point),
     }
+
+
+def fsr2_uniforms(params: FSR2Params) -> dict:
+    """The float uniforms of the fsr2 passes for ``params`` (float32 values, as the shaders hold them)."""
+    f = lambda v: float(np.float32(v))  # noqa: E731
+    return {"u_depth_tolerance": f(params.depth_tolerance), "u_slope_factor": f(params.slope_factor),
+            "u_lock_contrast": f(params.lock_contrast), "u_max_weight": f(params.max_weight), "u_gamma": f(params.gamma),
+            "u_resample_penalty": f(params.resample_penalty), "u_min_sample_weight": f(params.min_sample_weight),
+            "u_lock_decay": f(np.float32(1.0 / params.lock_frames)), "u_lock_luma_tolerance": f(params.lock_luma_tolerance),
+            "u_sharpness": f(params.sharpness)}
+
+
+def fsr2_params_from_uniforms(uniforms: dict) -> FSR2Params:
+    """The ``FSR2Params`` behind fsr2 uniform values (those a pass does not take keep their defaults)."""
+    names = {"u_depth_tolerance": "depth_tolerance", "u_slope_factor": "slope_factor", "u_lock_contrast": "lock_contrast",
+             "u_max_weight": "max_weight", "u_gamma": "gamma", "u_resample_penalty": "resample_penalty",
+             "u_min_sample_weight": "min_sample_weight", "u_lock_luma_tolerance": "lock_luma_tolerance",
+             "u_sharpness": "sharpness"}
+    values = {field: uniforms[u] for u, field in names.items() if u in uniforms}
+    if "u_lock_decay" in uniforms:
+        values["lock_frames"] = int(round(1.0 / uniforms["u_lock_decay"]))
+    return FSR2Params(**values)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ops import demodulation, inpaint, quant, sharpen, subpixel, taau, warp
+from ..ops import demodulation, fsr2, inpaint, quant, sharpen, subpixel, taau, warp
 from ..ops.resample import avgpool
 from .passes import PACKED_GBUFFERS
 from .weights import Conv3x3
@@ -186,3 +186,36 @@ class ReferencePasses:
         gain = taau.filter_gain(motion, scale, filter_falloff)
         steer = taau.steer_from_raw(raw, correction_bound, 0.0, filter_bound, filter_scale=gain)
         return encode_unorm8(taau.display(to_half(history)[..., :3], steer))
+
+    # -- fsr2 ----------------------------------------------------------------------------------
+    def fsr2_reconstruct(self, depth, motion):
+        """fsr2_reconstruct_pass.  depth (h,w,1), motion (h,w,2) -> (dilated (h,w,4): the nearest
+        neighbour's depth and motion, 0; previous_depth (h*w,) uint32: the bits of
+        ``ops.fsr2.reconstruct_previous_depth_encoded``, 0 where no surface landed)."""
+        depth, motion = np.asarray(depth, np.float32), np.asarray(motion, np.float32)
+        dilated_depth, dilated_motion = fsr2.dilate(depth, motion)
+        encoded = fsr2.reconstruct_previous_depth_encoded(dilated_depth, dilated_motion)
+        dilated = np.concatenate([dilated_depth, dilated_motion, np.zeros_like(dilated_depth)], axis=-1)
+        return dilated, encoded.reshape(-1).view(np.uint32).copy()
+
+    def fsr2_depth_clip(self, dilated, color, previous_depth, params: fsr2.FSR2Params):
+        """fsr2_depth_clip_pass -> analysis (h,w,4): ``ops.fsr2.disocclusion``, ``thin_features``, 0, 0."""
+        h, w = dilated.shape[:2]
+        previous = fsr2.decode_depth(np.asarray(previous_depth, np.uint32).view(np.float32).reshape(h, w))[..., None]
+        clip = fsr2.disocclusion(dilated[..., 0:1], dilated[..., 1:3], previous, params)
+        thin = fsr2.thin_features(to_half(color)[..., :3], params.lock_contrast)
+        return np.concatenate([clip, thin, np.zeros((h, w, 2), np.float32)], axis=-1)
+
+    def fsr2_accumulate(self, color, dilated, analysis, history, locks, reactive, previous_depth, jitter, scale: int,
+                        reset: bool, params: fsr2.FSR2Params):
+        """fsr2_accumulate_pass -> (next_history (H,W,4) and next_locks (H,W,2) fp16 values of
+        ``ops.fsr2.accumulate``, previous_depth cleared to zeros).  ``reactive`` (h,w,1) or None."""
+        next_history, next_locks = fsr2.accumulate(
+            to_half(color)[..., :3], dilated[..., 1:3], analysis[..., 0:2],
+            to_half(history), to_half(locks)[..., :2], as_jitter(jitter), scale, reset, params,
+            None if reactive is None else np.asarray(reactive, np.float32))
+        return to_half(next_history), to_half(next_locks), np.zeros_like(np.asarray(previous_depth, np.uint32))
+
+    def fsr2_rcas(self, image, sharpness: float):
+        """fsr2_rcas_pass: (H,W,3) -> (H,W,3) fp16 values of ``ops.fsr2.rcas``."""
+        return to_half(fsr2.rcas(to_half(image)[..., :3], float(np.float32(sharpness))))
