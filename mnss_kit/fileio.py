@@ -281,10 +281,20 @@ def _filesystem_errors(path: Path) -> Iterator[None]:
     """A write that the filesystem refused (disk full, read-only) as a UserError naming ``path``."""
     try:
         yield
+    except shutil.Error as e:  # copytree gathers its per-file errors as (src, dst, reason) text
+        refused = [why for *_, why in _copy_errors(e) if any(os.strerror(n) in why for n in _WRITE_ERRNOS)]
+        if refused:
+            raise UserError(f"cannot write {path}: {refused[0]}") from None
+        raise
     except OSError as e:
         if e.errno in _WRITE_ERRNOS:
             raise _write_error(path, e) from None
         raise
+
+
+def _copy_errors(e: shutil.Error) -> list[tuple]:
+    errors = e.args[0] if e.args else []
+    return [tuple(str(x) for x in item) for item in errors if isinstance(item, tuple)] if isinstance(errors, list) else []
 
 
 @contextlib.contextmanager
