@@ -22,7 +22,7 @@ from ..ops.jitter import PATTERNS, jitter_sequence, period
 from ..ops.resample import bilinear_sample, pixel_grid
 from ..ops.warp import upsample_motion, warp_bilinear
 from . import exr
-from .format import BUFFERS, META_FILE, REQUIRED_BUFFERS, SequenceMeta, buffer_path, canonical_motion, find_sequences, read_buffer, read_meta
+from .format import BUFFERS, COLOUR_BUFFERS, META_FILE, REQUIRED_BUFFERS, SequenceMeta, buffer_path, canonical_motion, find_sequences, read_buffer, read_meta
 
 UNIT_RANGE_BUFFERS = ("albedo", "roughness", "metallic")
 HEURISTIC_FRAMES = 4  # frames used by the sign heuristics
@@ -281,7 +281,7 @@ class SequenceChecker:
                 warn(where, f"negative linear depth (min {lo:g}); view depth is positive in front of the camera")
         elif buffer == "motion" and not reset:  # motion across a camera cut means nothing and is not used
             self.check_motion_range(where, raw, res)
-        elif buffer in ("color", "reference"):
+        elif buffer in COLOUR_BUFFERS:
             if m.color_space == "linear_hdr" and lo < -1e-3:
                 warn(where, f"negative colour values (min {lo:g}) in linear HDR")
             elif m.color_space == "display" and (lo < -1e-3 or hi > 1.001):

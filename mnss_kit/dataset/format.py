@@ -51,11 +51,16 @@ _SHARED_BUFFERS = {
     "fbeta": _RGB_HALF,
     "emissive": _RGB_HALF,
 }
+# Optional references besides the box-filtered ``reference``: an engine's own native frame,
+# anti-aliased by its TAA (``ops/native_taa.py``) or by 4 rotated-grid samples.
+REFERENCE_BUFFERS = {"box": "reference", "taa": "reference_taa", "4x": "reference_4x"}  # eval --reference
 BUFFERS: dict[str, dict[str, BufferSpec]] = {
     "lr": {"color": _RGB_HALF, **_SHARED_BUFFERS},  # colour is jittered
-    "hr": {"reference": _RGB_HALF, **_SHARED_BUFFERS},  # the supersampled target
+    "hr": {"reference": _RGB_HALF, **_SHARED_BUFFERS,  # the supersampled target
+           "reference_taa": _RGB_HALF, "reference_4x": _RGB_HALF},
 }
 REQUIRED_BUFFERS = {"lr": ("color", "depth", "motion"), "hr": ("reference",)}
+COLOUR_BUFFERS = ("color", *REFERENCE_BUFFERS.values())  # same colour space and exposure as ``color``
 
 
 @dataclass
@@ -188,7 +193,7 @@ def read_buffer(seq_dir: str | Path, meta: SequenceMeta, res: str, buffer: str, 
         return canonical_depth(raw, meta)
     if buffer == "motion":
         return canonical_motion(raw, meta, size)
-    if buffer in ("color", "reference"):
+    if buffer in COLOUR_BUFFERS:
         return canonical_colour(raw, meta)
     return raw
 

@@ -6,6 +6,7 @@ tensors (``docs/architecture.md``)::
     color (T, 3, h, w)   depth (T, 1, h, w)   motion (T, 2, h, w)   LR, canonical conventions
     jitter (T, 2)        reset (T,)                                  LR pixels; 1.0 = no history
     reference (T, 3, H, W)                                           HR target, display values
+                                      (hr/reference, or the buffer ``reference`` names, e.g. reference_taa)
     hr_<buffer> (T, C, H, W), lr_<buffer> (T, C, h, w)               optional G-buffers
 
 Crops sit at integer LR pixels, and the HR crop is the same screen area
@@ -88,6 +89,7 @@ class LoadedSequence:
     seq_dir: Path
     meta: SequenceMeta
     source: ExrFrames | CachedFrames
+    reference: str = "reference"  # the HR buffer loaded as the key ``reference``
 
     @property
     def name(self) -> str:
@@ -97,7 +99,7 @@ class LoadedSequence:
         """Frames ``start .. start+count-1`` as float32 arrays with a leading time axis."""
         scale = self.meta.scale
         out = {}
-        for key, (res, buffer) in {**BASE_KEYS, **extra_keys}.items():
+        for key, (res, buffer) in {**BASE_KEYS, "reference": ("hr", self.reference), **extra_keys}.items():
             crop = lr_crop if res == "lr" else lr_crop.scaled(scale)
             out[key] = self.source.read(res, buffer, start, count, crop)
         metas = self.meta.frames[start : start + count]
@@ -131,27 +133,30 @@ def open_sequences(
     cache_dir: str | Path | None,
     progress: bool = True,
     needed_by: str = "",
+    reference: str = "reference",
 ) -> list[LoadedSequence]:
     """Every sequence under ``root`` (a dataset, a sequence, or a list of them), checked for the wanted buffers;
-    ``needed_by`` names who wants the optional ones (e.g. ``the fusesr family``) in the error."""
+    ``needed_by`` names who wants the optional ones (e.g. ``the fusesr family``) in the error; ``reference``
+    is the HR buffer loaded as the target (``reference``, ``reference_taa`` or ``reference_4x``)."""
     roots = [root] if isinstance(root, (str, Path)) else list(root)
     seq_dirs = [s for r in roots for s in find_sequences(r)]
     metas = [read_meta(s) for s in seq_dirs]
-    wanted = list(BASE_KEYS.values()) + list(extra_keys.values())
+    base = {**BASE_KEYS, "reference": ("hr", reference)}
+    wanted = list(dict.fromkeys([*base.values(), *extra_keys.values()]))
     for seq_dir, meta in zip(seq_dirs, metas):
         for index, frame in enumerate(meta.frames):
             if frame.index != index:
                 raise UserError(f"{seq_dir}: frame {index} in meta.json has index {frame.index}; frames must be 0, 1, 2, ... in order")
         for res, buffer in wanted:
             if buffer not in meta.buffers.get(res, []):
-                who = f", which {needed_by} needs," if needed_by and (res, buffer) not in BASE_KEYS.values() else ""
+                who = f", which {needed_by} needs," if needed_by and (res, buffer) not in base.values() else ""
                 raise UserError(f"{seq_dir}: buffer {res}/{buffer}{who} is not in this sequence (meta.json buffers.{res}; "
                                 "docs/dataset.md lists each family's buffers)")
     if not cache:
-        return [LoadedSequence(s, m, ExrFrames(s, m)) for s, m in zip(seq_dirs, metas)]
+        return [LoadedSequence(s, m, ExrFrames(s, m), reference) for s, m in zip(seq_dirs, metas)]
     cache_root = Path(cache_dir) if cache_dir else default_cache_dir(roots[0])
     caches = prepare_caches(seq_dirs, wanted, cache_root, progress=progress, metas=metas)
-    return [LoadedSequence(s, m, CachedFrames(c)) for s, m, c in zip(seq_dirs, metas, caches)]
+    return [LoadedSequence(s, m, CachedFrames(c), reference) for s, m, c in zip(seq_dirs, metas, caches)]
 
 
 class WindowDataset(Dataset):
@@ -284,11 +289,12 @@ def eval_sequences(
     cache_dir: str | Path | None = None,
     progress: bool = True,
     needed_by: str = "",
+    reference: str = "reference",
 ) -> list[SequenceFrames]:
     """Every sequence under ``root`` for evaluation or calibration, sorted by directory.
 
     Reads the EXR files by default (exact values); ``cache=True`` reuses the
-    training cache instead.
+    training cache instead.  ``reference`` is the HR buffer each frame carries as ``reference``.
     """
     extra = extra_buffer_keys(hr_buffers, lr_buffers)
-    return [SequenceFrames(s, extra) for s in open_sequences(root, extra, cache, cache_dir, progress, needed_by)]
+    return [SequenceFrames(s, extra) for s in open_sequences(root, extra, cache, cache_dir, progress, needed_by, reference)]

@@ -11,6 +11,7 @@
         frames: 90
         camera: auto       # 'auto' (generated from the seed) or a camera-path YAML
         particles: true
+        extra_references: [taa, 4x]   # also hr/reference_taa, hr/reference_4x (held-out data)
 
 Paths (scene files, camera paths) are taken as given, then relative to the
 config file, then under ``mnss_kit/configs/scenes/``.  ``--set key=value`` overrides a
@@ -28,8 +29,9 @@ from ..config import CONFIG_DIR, apply_overrides, from_dict, read_yaml, resolve_
 from ..errors import UserError
 from ..ops import jitter as jitter_ops
 
-BUILTIN_SCENES = ("arena", "town", "flight", "factory", "rooms", "rooms_unseen")
+BUILTIN_SCENES = ("arena", "town", "flight", "factory", "rooms", "rooms_unseen", "garden")
 SCENE_SUFFIXES = (".gltf", ".glb", ".obj")
+EXTRA_REFERENCES = ("taa", "4x")  # the renderer's optional native-AA references
 SCENE_CAMERAS = ("auto", "still")  # a built-in scene's own path, moving or held; an imported scene has none
 
 
@@ -49,6 +51,8 @@ class SequenceConfig:
     particles: bool = False
     animated_light: bool = False
     exposure: float = 1.0
+    # native-AA references beside the box one: "taa" (hr/reference_taa), "4x" (hr/reference_4x)
+    extra_references: tuple[str, ...] = ()
 
     def __post_init__(self):
         if not re.fullmatch(r"[A-Za-z0-9_.-]+", self.name):
@@ -63,6 +67,10 @@ class SequenceConfig:
         if self.exposure <= 0:
             raise ValueError(f"sequence '{self.name}': exposure must be > 0")
         jitter_ops.period(self.jitter, self.scale)  # raises UserError for a bad pattern or scale
+        unknown = [r for r in self.extra_references if r not in EXTRA_REFERENCES]
+        if unknown or len(set(self.extra_references)) != len(self.extra_references):
+            raise ValueError(f"sequence '{self.name}': extra_references takes each of {', '.join(EXTRA_REFERENCES)} "
+                             f"at most once, got {list(self.extra_references)}")
 
     @property
     def hr_size(self) -> tuple[int, int]:

@@ -4,6 +4,10 @@ Per frame: one shadow map; the LR frame (jittered projection, texture mip bias
 ``log2(1 / scale)``); the HR G-buffers (pixel centres, one sample); the HR
 reference as the box-filtered mean of ``hr_samples`` jittered HR passes on a
 ``k x k`` stratified grid per pixel, accumulated in float32 in a fixed order.
+Optionally the references an engine would hold as its native frame:
+``reference_4x`` (4 passes on the rotated-grid 4x MSAA positions) and
+``reference_taa`` (``mnss_kit.ops.native_taa`` over one Halton-jittered HR pass
+per frame, its history carried from frame to frame).
 
 Shading identity (exact up to the stored precision, per RGB channel; see
 ``shaders/render/lighting.frag`` and ``mnss_kit.ops.brdf``)::
@@ -27,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..ops import native_taa
 from ..ops.brdf import brdf_lut
 from . import gpu
 from .camera import jittered, perspective
@@ -41,6 +46,12 @@ class FrameSpec:
     time: float
     prev_time: float
     jitter: tuple[float, float]  # LR pixels, +y down
+    index: int = 0  # frame of the sequence: the native TAA's jitter phase
+    reset: bool = False  # camera cut: the native TAA drops its history
+
+
+# the standard 4x MSAA sample positions (Direct3D), a rotated grid, in pixels (+y down)
+ROTATED_GRID_4X = ((-0.125, -0.375), (0.375, -0.125), (-0.375, 0.125), (0.125, 0.375))
 
 
 @dataclass
@@ -53,10 +64,13 @@ class CameraMatrices:
 class Renderer:
     """Uploads a scene once and renders frames of it at LR and HR."""
 
-    def __init__(self, scene: Scene, lr_size: tuple[int, int], scale: int, hr_samples: int = 16):
+    def __init__(self, scene: Scene, lr_size: tuple[int, int], scale: int, hr_samples: int = 16,
+                 extra_references: tuple[str, ...] = ()):
         import moderngl
 
         self.scene = scene
+        self.extra_references = tuple(extra_references)
+        self.taa_history = None  # the native TAA's previous output: frames must come in order
         self.lr_size = tuple(lr_size)
         self.hr_size = (lr_size[0] * scale, lr_size[1] * scale)
         self.scale = scale
@@ -294,7 +308,31 @@ class Renderer:
         self._particle_pass(target, vp_j, cam.view, frame_state["particles"], accumulate)
 
     def render(self, frame: FrameSpec) -> dict[str, dict[str, np.ndarray]]:
-        """All buffers of one frame: ``{"lr": {name: (h, w, C)}, "hr": {name: (H, W, C)}}`` float32."""
+        """All buffers of one frame: ``{"lr": {name: (h, w, C)}, "hr": {name: (H, W, C)}}`` float32.
+
+        With ``extra_references`` also ``hr`` ``reference_4x`` and ``reference_taa``; the TAA needs
+        every frame since the last reset passed in order (``advance_taa`` for those not written).
+        """
+        state = self._begin_frame(frame)
+        self._draw(self.lr, state, frame.jitter, -math.log2(self.scale), accumulate=False)
+        lr = _read_all(self.lr, "color")
+        self._draw(self.hr, state, (0.0, 0.0), 0.0, accumulate=False)
+        hr = _read_all(self.hr, "reference")
+        g = self.grid  # fixed order: float32 sums are reproducible
+        hr["reference"] = self._supersample(state, [((i + 0.5) / g - 0.5, (j + 0.5) / g - 0.5) for j in range(g) for i in range(g)])
+        if "4x" in self.extra_references:
+            hr["reference_4x"] = self._supersample(state, ROTATED_GRID_4X)
+        if "taa" in self.extra_references:
+            hr["reference_taa"] = self._taa_frame(frame, state)
+        return {"lr": lr, "hr": hr}
+
+    def advance_taa(self, frame: FrameSpec) -> None:
+        """Run the native TAA over ``frame`` without rendering the rest (a frame another shard or an
+        earlier run wrote, whose history the next frame needs)."""
+        self._taa_frame(frame, self._begin_frame(frame))
+
+    def _begin_frame(self, frame: FrameSpec) -> dict:
+        """Camera, objects, particles, shadow map and light uniforms of ``frame``: the per-frame state of ``_draw``."""
         t = frame.time
         cam = self.camera(t)
         state = {
@@ -307,19 +345,24 @@ class Renderer:
         light_vp, texel = self.light_matrix(t, cam)
         self._shadow_pass(light_vp, state["models"])
         self._set_light_uniforms(t, cam, light_vp, texel)
+        return state
 
-        self._draw(self.lr, state, frame.jitter, -math.log2(self.scale), accumulate=False)
-        lr = _read_all(self.lr, "color")
-        self._draw(self.hr, state, (0.0, 0.0), 0.0, accumulate=False)
-        hr = _read_all(self.hr, "reference")
+    def _supersample(self, state: dict, offsets) -> np.ndarray:
+        """(H, W, 3) float32 mean of HR passes at ``offsets`` (HR pixels), summed in the given order."""
         self.hr.accumulate.use()
         self.hr.accumulate.clear(0.0, 0.0, 0.0, 0.0)
-        g = self.grid
-        for j in range(g):  # fixed order: float32 sums are reproducible
-            for i in range(g):
-                self._draw(self.hr, state, ((i + 0.5) / g - 0.5, (j + 0.5) / g - 0.5), 0.0, accumulate=True)
-        hr["reference"] = self.hr.read("shade", "color", 3) / np.float32(g * g)
-        return {"lr": lr, "hr": hr}
+        for offset in offsets:
+            self._draw(self.hr, state, offset, 0.0, accumulate=True)
+        return self.hr.read("shade", "color", 3) / np.float32(len(offsets))
+
+    def _taa_frame(self, frame: FrameSpec, state: dict) -> np.ndarray:
+        """The native TAA's output for ``frame``: one HR pass at the Halton jitter (colour, and motion and
+        depth as an engine's jittered velocity pass gives them), blended into the history."""
+        self._draw(self.hr, state, native_taa.halton_offset(frame.index), 0.0, accumulate=False)
+        motion_depth = self.hr.read("gbuffer", "motion_depth", 3)
+        self.taa_history = native_taa.native_taa_step(
+            self.hr.read("shade", "color", 3), motion_depth[..., :2], motion_depth[..., 2], self.taa_history, frame.reset)
+        return self.taa_history
 
     def release(self) -> None:
         for obj in reversed(self._resources):

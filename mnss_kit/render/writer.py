@@ -6,6 +6,14 @@ global frames ``k`` with ``k % N == I``.  Every shard writes the same
 ``meta.json`` for every sequence, so shard outputs merge by copying
 directories on top of each other.  A frame whose buffer files all exist is
 skipped (resume after an interruption); each file is written atomically.
+
+The native TAA reference (``extra_references: [taa]``) is the exception: frame
+``k`` depends on the frames since the last reset.  Its history is not stored;
+a shard or a resumed run re-runs the TAA from the last reset (camera cut or
+sequence start) before each frame it writes, rendering only the one TAA pass
+of the frames it does not write (``Renderer.advance_taa``).  So the history,
+and every byte, is the same however the frames are split or resumed, and
+shards still merge by copying; the price is one HR pass per skipped frame.
 """
 
 from __future__ import annotations
@@ -21,9 +29,10 @@ import numpy as np
 
 from ..config import to_dict
 from ..dataset.format import (
-    BUFFERS, FORMAT_NAME, FORMAT_VERSION, FrameMeta, META_FILE, MotionConvention, SequenceMeta, buffer_path, write_buffer, write_meta,
+    BUFFERS, FORMAT_NAME, REFERENCE_BUFFERS, FORMAT_VERSION, FrameMeta, META_FILE, MotionConvention, SequenceMeta, buffer_path, write_buffer, write_meta,
 )
 from ..errors import UserError
+from ..ops import native_taa
 from ..ops.jitter import jitter_sequence
 from . import gpu
 from .camera import perspective
@@ -74,15 +83,52 @@ def sequence_meta(seq: SequenceConfig, scene: Scene) -> SequenceMeta:
         near=scene.near, far=scene.far, reverse_z=False, depth_encoding="hardware",
         motion=MotionConvention(units="pixels", points_to="previous", y_axis="down", scale=1.0),
         color_space="linear_hdr", exposure=seq.exposure,
-        buffers={res: list(BUFFERS[res]) for res in ("lr", "hr")},
-        scene={**to_dict(seq), "renderer": RENDERER_NAME, "environment": gpu.environment(), "normal_space": "world",
+        buffers={res: list(written_buffers(seq, res)) for res in ("lr", "hr")},
+        scene={**_config_record(seq), "renderer": RENDERER_NAME, "environment": gpu.environment(), "normal_space": "world",
                "hr_buffers": "1 sample at pixel centres; reference is the box-filtered mean of hr_samples",
-               "identity": "color = emissive + fbeta * L (L demodulated radiance; fbeta = 0 on sky)"},
+               "identity": "color = emissive + fbeta * L (L demodulated radiance; fbeta = 0 on sky)",
+               **_extra_reference_notes(seq)},
     )
 
 
-def frame_complete(seq_dir: Path, index: int) -> bool:
-    return all(buffer_path(seq_dir, res, name, index).is_file() for res in ("lr", "hr") for name in BUFFERS[res])
+def written_buffers(seq: SequenceConfig, res: str) -> list[str]:
+    """The buffers a render of ``seq`` writes at ``res``: every one, less the references it does not ask for."""
+    skipped = {REFERENCE_BUFFERS[r] for r in ("taa", "4x") if r not in seq.extra_references}
+    return [name for name in BUFFERS[res] if name not in skipped]
+
+
+def _config_record(seq: SequenceConfig) -> dict:
+    """The sequence config for meta.json; without extra references the key is left out, so such a
+    render's meta.json (and dataset fingerprint) stays what it was before the key existed."""
+    record = to_dict(seq)
+    if not seq.extra_references:
+        del record["extra_references"]
+    return record
+
+
+def _extra_reference_notes(seq: SequenceConfig) -> dict:
+    notes = {}
+    if "taa" in seq.extra_references:
+        notes["reference_taa"] = native_taa.describe()
+    if "4x" in seq.extra_references:
+        notes["reference_4x"] = "mean of 4 samples at the rotated-grid 4x MSAA positions (Direct3D standard pattern)"
+    return notes
+
+
+def frame_complete(seq_dir: Path, index: int, buffers: dict[str, list[str]]) -> bool:
+    return all(buffer_path(seq_dir, res, name, index).is_file() for res, names in buffers.items() for name in names)
+
+
+def frames_to_run(meta: SequenceMeta, todo: list[int], taa: bool) -> list[int]:
+    """The frames to pass through the renderer, in order: ``todo``, and with the TAA reference also
+    every frame back to the last reset before each (its history)."""
+    if not taa or not todo:
+        return todo
+    last_reset, starts = 0, []
+    for frame in meta.frames:
+        last_reset = frame.index if frame.reset else last_reset
+        starts.append(last_reset)
+    return sorted({f for t in todo for f in range(starts[t], t + 1)})
 
 
 def write_frame(seq_dir: Path, index: int, buffers: dict[str, dict[str, np.ndarray]]) -> None:
@@ -155,20 +201,25 @@ def render_dataset(cfg: RenderConfig, out_dir: str | Path, shard: tuple[int, int
             scene = build_scene(seq, cfg)
             meta = sequence_meta(seq, scene)
             _prepare_meta(seq_dir, meta, overwrite)
-            todo = [f for f in frames if overwrite or not frame_complete(seq_dir, f)]
+            todo = [f for f in frames if overwrite or not frame_complete(seq_dir, f, meta.buffers)]
             skipped += len(frames) - len(todo)
             bar.update(len(frames) - len(todo))
             if not todo:
                 continue
             bar.set_description(seq.name)
-            renderer = Renderer(scene, tuple(seq.lr_size), seq.scale, seq.hr_samples)
+            renderer = Renderer(scene, tuple(seq.lr_size), seq.scale, seq.hr_samples, seq.extra_references)
+            wanted = set(todo)
             # EXR compression of frame k overlaps with rendering frame k + 1 (one frame in flight)
             with ThreadPoolExecutor(max_workers=1) as pool:
                 pending = None
                 try:
-                    for f in todo:
+                    for f in frames_to_run(meta, todo, "taa" in seq.extra_references):
                         fm = meta.frames[f]
-                        buffers = renderer.render(FrameSpec(fm.time, previous_time(seq, f), fm.jitter))
+                        spec = FrameSpec(fm.time, previous_time(seq, f), fm.jitter, index=f, reset=fm.reset)
+                        if f not in wanted:
+                            renderer.advance_taa(spec)
+                            continue
+                        buffers = renderer.render(spec)
                         if pending is not None:
                             pending.result()
                             bar.update(1)

@@ -40,6 +40,8 @@ def test_defaults_merge_and_overrides(tmp_path):
     ("sequences:\n  - {name: 'a/b', scene: arena}\n", "must use letters"),
     ("sequences: []\n", "non-empty list"),
     ("frames: 3\nsequences:\n  - {name: a, scene: arena}\n", "unknown key 'frames'"),
+    ("sequences:\n  - {name: a, scene: arena, extra_references: [msaa]}\n", "extra_references takes each of taa, 4x"),
+    ("sequences:\n  - {name: a, scene: arena, extra_references: [taa, taa]}\n", "at most once"),
 ])
 def test_bad_configs_are_user_errors(tmp_path, text, message):
     with pytest.raises(UserError, match=message):

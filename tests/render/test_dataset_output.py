@@ -23,7 +23,7 @@ def test_all_buffers_written_with_meta(tiny_render):
     assert meta.frames[0].reset  # first frame of a sequence
     assert not meta.reverse_z and meta.depth_encoding == "hardware"
     for res in ("lr", "hr"):
-        for name in fmt.BUFFERS[res]:
+        for name in meta.buffers[res]:
             img = fmt.read_raw_buffer(tiny_render / "arena", res, name, 3)
             assert img.shape[:2] == ((36, 64) if res == "lr" else (72, 128)) and np.all(np.isfinite(img))
     depth = fmt.read_raw_buffer(tiny_render / "arena", "hr", "depth", 0)

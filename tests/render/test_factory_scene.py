@@ -28,7 +28,7 @@ def test_factory_renders_every_buffer_and_passes_data_check(tmp_path):
     meta = fmt.read_meta(seq)
     assert meta.frame_count == 3 and meta.scene["scene"] == "factory"
     for res, size in (("lr", (27, 48)), ("hr", (54, 96))):
-        for name in fmt.BUFFERS[res]:
+        for name in meta.buffers[res]:
             image = fmt.read_raw_buffer(seq, res, name, 2)
             assert image.shape[:2] == size and np.all(np.isfinite(image)), (res, name)
 
