@@ -6,10 +6,11 @@ from pathlib import Path
 
 
 def evaluate_model(model_name: str, data_dir, methods: list[str] | None = None, max_frames: int | None = None,
-                   flip: bool = False, crops_dir=None, progress: bool = True) -> dict:
+                   flip: bool = False, crops_dir=None, progress: bool = True, reference: str = "box") -> dict:
     """Run ``methods`` (default: the model, its no-history ablation and the baselines) over
-    ``data_dir``; ``model_name`` is a checkpoint path, a shipped name or ``none``.  Returns the
-    result of :func:`.run.evaluate`."""
+    ``data_dir``; ``model_name`` is a checkpoint path, a shipped name or ``none``; ``reference``
+    (box, taa, 4x) the HR buffer the metrics compare against.  Returns the result of
+    :func:`.run.evaluate`."""
     from ..dataset import format as fmt
     from ..errors import UserError
     from .methods import default_methods
@@ -23,7 +24,7 @@ def evaluate_model(model_name: str, data_dir, methods: list[str] | None = None, 
     if missing:
         raise UserError(f"method(s) {', '.join(missing)} need a model (MODEL is 'none')")
     return evaluate({name: available[name] for name in wanted}, data_dir, scale=scale, max_frames=max_frames, flip=flip,
-                    crops_dir=crops_dir, progress=progress, model_info=info)
+                    crops_dir=crops_dir, progress=progress, model_info=info, reference=reference)
 
 
 def load_model(name_or_path: str, data_dir: str):

@@ -8,6 +8,7 @@ from pathlib import Path
 HELP = "Evaluate a model and baselines on a dataset (PSNR, SSIM, IF-SSIM, temporal error, cut recovery)."
 
 METHOD_NAMES = ("model", "model_nohist", "bicubic", "taau")
+REFERENCES = ("box", "taa", "4x")  # keys of dataset.format.REFERENCE_BUFFERS (not imported: the CLI starts fast)
 
 
 def _positive_int(text: str) -> int:
@@ -29,6 +30,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--crops", metavar="DIR", help="write side-by-side PNG crops (worst-error and centre regions) here")
     parser.add_argument("--methods", nargs="+", choices=METHOD_NAMES, metavar="NAME",
                         help=f"methods to run (default: all of {', '.join(METHOD_NAMES)}; without a model: the baselines)")
+    parser.add_argument("--reference", choices=REFERENCES, default="box",
+                        help="what the metrics compare against: box (hr/reference, the supersampled box filter; default), "
+                             "taa (hr/reference_taa, an engine-style native TAA frame) or 4x (hr/reference_4x, 4 rotated-grid samples)")
     parser.add_argument("--flip", action="store_true", help="also compute FLIP (slower)")
     parser.add_argument("--max-frames", type=_positive_int, metavar="N", help="evaluate at most N frames of each sequence")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -45,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     from .report import format_table, write_csv, write_json
 
     result = evaluate_model(args.model, args.data, args.methods, max_frames=args.max_frames, flip=args.flip,
-                            crops_dir=args.crops, progress=not args.no_progress)
+                            crops_dir=args.crops, progress=not args.no_progress, reference=args.reference)
     if args.csv:
         write_csv(args.csv, result["per_frame"])
     if args.json:

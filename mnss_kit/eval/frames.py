@@ -18,6 +18,7 @@ import torch
 
 from ..dataset import format as fmt
 from ..dataset.loader import eval_sequences
+from ..errors import UserError
 from ..ops.warp import upsample_motion
 
 
@@ -35,11 +36,28 @@ def frame_count(meta: fmt.SequenceMeta, max_frames: int | None) -> int:
     return meta.frame_count if max_frames is None else min(meta.frame_count, max_frames)
 
 
-def iter_frames(seq_dir: Path, meta: fmt.SequenceMeta, max_frames: int | None = None) -> Iterator[EvalFrame]:
-    """Frames ``0 .. n-1`` of one sequence with all its buffers; the first one always has reset set."""
-    hr_extra = [b for b in meta.buffers.get("hr", []) if b not in fmt.REQUIRED_BUFFERS["hr"]]
+def check_reference(seq_dir: Path, meta: fmt.SequenceMeta, reference: str) -> None:
+    """A UserError unless the sequence has the HR buffer of reference ``reference`` (box, taa, 4x)."""
+    if reference not in fmt.REFERENCE_BUFFERS:
+        raise UserError(f"unknown reference '{reference}' (one of {', '.join(fmt.REFERENCE_BUFFERS)})")
+    buffer = fmt.REFERENCE_BUFFERS[reference]
+    if buffer not in meta.buffers.get("hr", []):
+        raise UserError(f"{seq_dir}: no hr/{buffer} for --reference {reference} (render the data with "
+                        f"extra_references: [{reference}]; docs/dataset.md)")
+
+
+def iter_frames(seq_dir: Path, meta: fmt.SequenceMeta, max_frames: int | None = None, reference: str = "box") -> Iterator[EvalFrame]:
+    """Frames ``0 .. n-1`` of one sequence with all its buffers; the first one always has reset set.
+
+    ``reference`` (``fmt.REFERENCE_BUFFERS``: box, taa, 4x) picks the HR buffer the frame's
+    ``reference`` holds; the references are never among the model inputs.
+    """
+    check_reference(seq_dir, meta, reference)
+    references = set(fmt.REFERENCE_BUFFERS.values())
+    hr_extra = [b for b in meta.buffers.get("hr", []) if b not in fmt.REQUIRED_BUFFERS["hr"] and b not in references]
     lr_extra = [b for b in meta.buffers.get("lr", []) if b not in fmt.REQUIRED_BUFFERS["lr"]]
-    (sequence,) = eval_sequences(seq_dir, hr_buffers=hr_extra, lr_buffers=lr_extra, progress=False)
+    (sequence,) = eval_sequences(seq_dir, hr_buffers=hr_extra, lr_buffers=lr_extra, progress=False,
+                                 reference=fmt.REFERENCE_BUFFERS[reference])
     s = meta.scale
     for t, frame in zip(range(frame_count(meta, max_frames)), sequence):
         inputs = {k: v for k, v in frame.items() if k != "reference"}

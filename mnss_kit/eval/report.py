@@ -54,7 +54,9 @@ def format_table(result: dict) -> str:
     widths = [max(len(line[i]) for line in lines) for i in range(len(header))]
     text = [" ".join(cell.ljust(widths[i]) if i == 0 else cell.rjust(widths[i]) for i, cell in enumerate(line)) for line in lines]
     frames = result.get("frames")
-    text.append(f"({frames} frames in {len(result.get('sequences', {}))} sequence(s))")
+    reference = result.get("settings", {}).get("reference", "box")
+    against = "" if reference == "box" else f", against the {reference} reference"
+    text.append(f"({frames} frames in {len(result.get('sequences', {}))} sequence(s){against})")
     return "\n".join(text)
 
 

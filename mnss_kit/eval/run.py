@@ -27,7 +27,7 @@ from ..metrics.pattern import phase_offset
 from ..metrics.psnr import psnr
 from ..metrics.temporal import DEPTH_TOLERANCE, POOL, SHADING_FLOOR, SHADING_WEBER, if_ssim, temporal_masks, temporal_scores
 from .crops import crop_frame_indices, write_crops
-from .frames import EvalFrame, frame_count, iter_frames
+from .frames import EvalFrame, check_reference, frame_count, iter_frames
 from .methods import Method, default_methods
 from .summary import summarize
 
@@ -42,6 +42,7 @@ class EvalOptions:
     flip: bool = False
     crops_dir: Path | None = None
     progress: bool = True
+    reference: str = "box"  # fmt.REFERENCE_BUFFERS: the HR buffer the metrics compare against
 
 
 @dataclass
@@ -62,6 +63,7 @@ def evaluate(
     crops_dir: str | Path | None = None,
     progress: bool = True,
     model_info: dict | None = None,
+    reference: str = "box",
 ) -> dict:
     """Evaluate methods on every sequence under ``data_dir``; returns the summary dict.
 
@@ -70,10 +72,14 @@ def evaluate(
     scale the methods expect; data at another scale is a UserError.  The
     result has ``frames``, ``methods`` (means per method), ``sequences``
     (per-sequence breakdowns), ``settings``, ``model`` (``model_info``) and
-    ``per_frame`` (one row per frame and method, for the CSV).
+    ``per_frame`` (one row per frame and method, for the CSV).  ``reference`` chooses what the
+    metrics compare against: ``box`` (hr/reference, the supersampled box filter), ``taa`` (the
+    native TAA frame, hr/reference_taa) or ``4x`` (4 rotated-grid samples, hr/reference_4x).
     """
     seq_dirs = fmt.find_sequences(data_dir)
     metas = [fmt.read_meta(d) for d in seq_dirs]
+    for seq_dir, meta in zip(seq_dirs, metas):
+        check_reference(seq_dir, meta, reference)
     data_scale = _common_scale(seq_dirs, metas, scale)
     if isinstance(methods_or_model, torch.nn.Module):
         methods = default_methods(methods_or_model, data_scale)
@@ -81,7 +87,7 @@ def evaluate(
         methods = dict(methods_or_model)
     else:
         raise TypeError("evaluate expects a model or a non-empty {name: method} dict")
-    opts = EvalOptions(max_frames, flip, Path(crops_dir) if crops_dir else None, progress)
+    opts = EvalOptions(max_frames, flip, Path(crops_dir) if crops_dir else None, progress, reference)
     total = sum(frame_count(m, max_frames) for m in metas)
 
     from tqdm import tqdm
@@ -101,6 +107,7 @@ def evaluate(
         "data": [portable_path(d) for d in data_dir] if isinstance(data_dir, (list, tuple)) else portable_path(data_dir),
         "scale": data_scale,
         "max_frames": max_frames,
+        "reference": reference,  # box, taa or 4x: hr/reference, hr/reference_taa, hr/reference_4x
         "flip": flip,
         "if_ssim": {"pool": POOL, "depth_tolerance": DEPTH_TOLERANCE,
                     "shading_threshold": f"{SHADING_FLOOR} + {SHADING_WEBER} * display_luma"},
@@ -137,7 +144,7 @@ def _run_sequence(
     rows: list[dict] = []
     reference_if_ssim: list[float] = []
     prev: EvalFrame | None = None
-    for frame in iter_frames(seq_dir, meta, opts.max_frames):
+    for frame in iter_frames(seq_dir, meta, opts.max_frames, opts.reference):
         masks = None
         if prev is not None and not frame.reset:
             masks = temporal_masks(frame.reference, prev.reference, frame.hr_depth, prev.hr_depth, frame.hr_motion)
