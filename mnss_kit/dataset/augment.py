@@ -8,6 +8,10 @@
     motion_noise   LR motion plus Gaussian noise of ``variants.MOTION_NOISE_PX`` pixels
     exposure       the scene's light scaled by 2^u, u uniform in [-1, 1]: colour and reference
                    through the display transform, the linear emissive buffers scaled
+    motion_dilate  LR motion of the nearest-depth pixel of each 3x3 (``engine_motion.dilated``)
+    motion_pack8   LR motion through the 8-bit pair packing (``engine_motion.packed8``)
+    motion_half    LR motion through 16-bit floats in UV units (``engine_motion.half_float``); at
+                   most one of the two packings per window
 
 The draws come from ``(seed, epoch, window index)``, as the crops do, so a window's augmentation
 does not depend on the worker that loads it.  Validation windows are never augmented.  The same
@@ -20,9 +24,12 @@ import numpy as np
 
 from ..ops import colour
 from . import format as fmt
+from . import engine_motion
 from .variants import MOTION_NOISE_PX, hardware_depth_bits, ldr8_colour, noisy_motion
 
-AUGMENTATIONS = ("ldr8", "depth8", "depth16", "motion_noise", "exposure")
+# new names go last: a config's draws (one per name it lists, in this order) stay what they were
+AUGMENTATIONS = ("ldr8", "depth8", "depth16", "motion_noise", "exposure", "motion_dilate", "motion_pack8", "motion_half")
+PER_FRAME_MOTION = {"motion_pack8": engine_motion.packed8, "motion_half": engine_motion.half_float}
 EXPOSURE_STOPS = 1.0  # exposure scale 2^u, |u| <= this
 
 
@@ -38,8 +45,9 @@ def check_augment(augment: dict) -> None:
 def draw(augment: dict, rng: np.random.Generator) -> list[str]:
     """The augmentations one window gets (one uniform draw per name, in AUGMENTATIONS order)."""
     chosen = [name for name in AUGMENTATIONS if name in augment and rng.random() < float(augment[name])]
-    if "depth8" in chosen and "depth16" in chosen:
-        chosen.remove("depth16")
+    for kept, dropped in (("depth8", "depth16"), ("motion_pack8", "motion_half")):
+        if kept in chosen and dropped in chosen:
+            chosen.remove(dropped)
     return chosen
 
 
@@ -60,7 +68,17 @@ def augment_window(arrays: dict[str, np.ndarray], meta: fmt.SequenceMeta, augmen
             out["depth"] = requantized_depth(out["depth"], meta, 8 if name == "depth8" else 16)
         elif name == "motion_noise":
             out["motion"] = noisy_motion(out["motion"], rng, MOTION_NOISE_PX)
+        elif name == "motion_dilate":
+            out["motion"] = _per_frame(lambda m, d: engine_motion.dilated(m, d), out["motion"], out["depth"])
+        elif name in PER_FRAME_MOTION:
+            out["motion"] = _per_frame(lambda m, _: PER_FRAME_MOTION[name](m), out["motion"], out["depth"])
     return out
+
+
+def _per_frame(fn, motion: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """``fn(motion (h, w, 2), depth (h, w, 1))`` on every frame of a (T, 2, h, w) window."""
+    frames = [fn(m.transpose(1, 2, 0), d.transpose(1, 2, 0)).transpose(2, 0, 1) for m, d in zip(motion, depth)]
+    return np.ascontiguousarray(np.stack(frames), dtype=np.float32)
 
 
 def requantized_depth(depth: np.ndarray, meta: fmt.SequenceMeta, bits: int) -> np.ndarray:

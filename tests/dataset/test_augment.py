@@ -8,6 +8,7 @@ import pytest
 
 from mnss_kit.config import from_dict
 from mnss_kit.dataset import augment as aug
+from mnss_kit.dataset import engine_motion as em
 from mnss_kit.dataset.format import read_meta
 from mnss_kit.dataset.loader import WindowDataset
 from mnss_kit.errors import UserError
@@ -67,3 +68,18 @@ def test_one_depth_precision_per_window():
 def test_bad_augment_settings_are_named(augment, message):
     with pytest.raises(UserError, match=message):
         from_dict(TrainConfig, {"augment": augment})
+
+
+def test_engine_motion_augmentations_apply_the_variants_definitions_per_frame():
+    rng = np.random.default_rng(1)
+    motion = rng.uniform(-4.0, 4.0, (3, 2, 6, 8)).astype(np.float32)
+    depth = rng.uniform(0.0, 1.0, (3, 1, 6, 8)).astype(np.float32)
+    arrays = {"motion": motion, "depth": depth}
+    for name, expected in (("motion_dilate", lambda m, d: em.dilated(m, d)), ("motion_pack8", lambda m, d: em.packed8(m)),
+                           ("motion_half", lambda m, d: em.half_float(m))):
+        out = aug.augment_window(arrays, None, {name: 1.0}, np.random.default_rng(0))
+        for t in range(3):
+            want = expected(motion[t].transpose(1, 2, 0), depth[t].transpose(1, 2, 0)).transpose(2, 0, 1)
+            np.testing.assert_array_equal(out["motion"][t], want)
+    assert all(not {"motion_pack8", "motion_half"} <= set(aug.draw({"motion_pack8": 1.0, "motion_half": 1.0}, rng))
+               for _ in range(20))
