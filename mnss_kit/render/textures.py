@@ -177,3 +177,32 @@ def stripes(size=64, count=8, a=(0.8, 0.78, 0.7), b=(0.08, 0.08, 0.08)) -> np.nd
 def noise_colour(rng, size=128, colour=(0.5, 0.5, 0.5), contrast=0.5, cells=8) -> np.ndarray:
     """Plain material with fine noise (cloth, skin, rock)."""
     return to_rgba8(_tint(colour, 1 - contrast / 2 + contrast * fbm(rng, size, cells, 4)))
+
+
+def pickets(rng, size=256, boards=6, colour=(0.75, 0.72, 0.66)) -> np.ndarray:
+    """Picket fence panel: boards with pointed tops and two rails (alpha 1), gaps between (alpha 0)."""
+    x, y = _grid(size)
+    fx = (x * boards) % 1.0
+    board = np.abs(fx - 0.5) < 0.3
+    tip = y > 0.08 + 0.35 * np.abs(fx - 0.5)  # pointed tops: y grows downwards
+    rail = (np.abs(y - 0.3) < 0.035) | (np.abs(y - 0.8) < 0.035)
+    solid = (board & tip) | rail
+    tint = rng.uniform(0.8, 1.1, boards)[(x * boards).astype(int)]
+    grain = 0.85 + 0.3 * fbm(rng, size, 8, 4)
+    return to_rgba8(_tint(colour, tint * grain), solid.astype(np.float32))
+
+
+def grass_blades(rng, size=256, colour=(0.1, 0.3, 0.05), count=90) -> np.ndarray:
+    """Grass card: tapered, slightly bent blades growing from the bottom edge on a transparent background."""
+    x, y = _grid(size)
+    alpha = np.zeros((size, size), np.float32)
+    tint = np.ones((size, size), np.float32)
+    height = 1.0 - y  # 0 at the bottom edge, 1 at the top
+    for root, tall, lean, width, shade in zip(rng.random(count), rng.uniform(0.35, 0.95, count), rng.uniform(-0.15, 0.15, count),
+                                              rng.uniform(0.008, 0.02, count), rng.uniform(0.6, 1.4, count)):
+        along = height / tall  # 0 at the root, 1 at the tip
+        centre = root + lean * along**2
+        blade = (along <= 1.0) & (np.abs(x - centre) < width * (1.0 - along))
+        alpha[blade] = 1.0
+        tint[blade] = shade * (0.6 + 0.4 * along[blade])  # darker near the ground
+    return to_rgba8(_tint(colour, tint), alpha)
