@@ -1,5 +1,6 @@
 """Built-in scenes (three modelled on game genres, one industrial interior, furnished rooms from the
-installed furniture catalogue in a training and an unseen variant) and the scene-file import path."""
+installed furniture catalogue in a training and an unseen variant, a held-out garden of alpha-tested
+foliage and articulated figures) and the scene-file import path."""
 
 from __future__ import annotations
 
@@ -9,10 +10,10 @@ from ...errors import UserError
 from ..camera import CameraPath
 from ..config import SCENE_CAMERAS, RenderConfig, SequenceConfig, resolve_asset
 from ..scene import Scene, Sun, static_instances
-from . import arena, factory, flight, rooms, town
+from . import arena, factory, flight, garden, rooms, town
 
 BUILDERS = {"arena": arena.build, "town": town.build, "flight": flight.build, "factory": factory.build,
-            "rooms": rooms.build, "rooms_unseen": rooms.build_unseen}
+            "rooms": rooms.build, "rooms_unseen": rooms.build_unseen, "garden": garden.build}
 
 
 def build_scene(seq: SequenceConfig, cfg: RenderConfig) -> Scene:
