@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-HELP = "stress scenarios (fast pan, cut, disocclusion, thin geometry, particles, light, moire, static, no jitter)"
+HELP = ("stress scenarios (fast pan, cut, disocclusion, thin geometry, particles, light, moire, static, no jitter, "
+        "figures crossing a wall, foliage strafe with a cut)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

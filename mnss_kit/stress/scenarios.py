@@ -30,6 +30,10 @@ SCENARIOS = (
     Scenario("flickering_light", "shading changes motion vectors do not explain: moving shadows, flickering sun"),
     Scenario("high_frequency_texture", "high-frequency textures: bricks, planks, stripes (moire, shimmer)"),
     Scenario("unjittered_input", "un-jittered input (jitter: center): no sub-pixel information to accumulate"),
+    Scenario("figure_crossing", "characters whose limbs cross a textured background: a runner and a walker before a "
+                                "brick wall, disocclusion every frame (see the disocclusion PSNR)"),
+    Scenario("foliage_strafe_cut", "alpha-tested foliage and fences: a low strafe past grass cards and a picket fence, "
+                                   "then a camera cut"),
 )
 
 NOT_COVERED = {

@@ -142,7 +142,7 @@ def test_garden_renders_deterministically(tiny_garden):
 def test_only_held_out_configs_render_the_garden():
     users = {p.stem for p in (CONFIG_DIR / "data").glob("*.yaml")
              if "garden" in {s.scene for s in load_render_config(str(p)).sequences}}
-    assert users == {"garden_x2", "unseen_x2"}
+    assert users == {"garden_x2", "unseen_x2", "stress"}
     unseen = {s.name: s for s in load_render_config("unseen_x2").sequences}
     for seq in load_render_config("garden_x2").sequences:  # the same sequences: either renders into the other's directory
         assert unseen[seq.name] == seq
