@@ -190,7 +190,7 @@ PASSES = {
              _s("history", 3, HISTORY_FORMAT), _s("locks", 4, "rgba16f"), _s("reactive", 5, "r32f"),
              _i("next_history", 0, HISTORY_FORMAT), _i("next_locks", 1, "rgba16f"), _b("previous_depth", 0, "uint[]")),
             ("u_scale", "u_jitter", "u_reset", "u_use_reactive", "u_max_weight", "u_gamma", "u_resample_penalty",
-             "u_min_sample_weight", "u_lock_decay", "u_lock_luma_tolerance"),
+             "u_kernel_width", "u_prior_weight", "u_lock_decay", "u_lock_luma_tolerance"),
             exact=False,
         ),
         Pass(
@@ -243,7 +243,8 @@ def fsr2_uniforms(params: FSR2Params) -> dict:
     f = lambda v: float(np.float32(v))  # noqa: E731
     return {"u_depth_tolerance": f(params.depth_tolerance), "u_slope_factor": f(params.slope_factor),
             "u_lock_contrast": f(params.lock_contrast), "u_max_weight": f(params.max_weight), "u_gamma": f(params.gamma),
-            "u_resample_penalty": f(params.resample_penalty), "u_min_sample_weight": f(params.min_sample_weight),
+            "u_resample_penalty": f(params.resample_penalty), "u_kernel_width": f(params.kernel_width),
+            "u_prior_weight": f(params.prior_weight),
             "u_lock_decay": f(np.float32(1.0 / params.lock_frames)), "u_lock_luma_tolerance": f(params.lock_luma_tolerance),
             "u_sharpness": f(params.sharpness)}
 
@@ -252,7 +253,7 @@ def fsr2_params_from_uniforms(uniforms: dict) -> FSR2Params:
     """The ``FSR2Params`` behind fsr2 uniform values (those a pass does not take keep their defaults)."""
     names = {"u_depth_tolerance": "depth_tolerance", "u_slope_factor": "slope_factor", "u_lock_contrast": "lock_contrast",
              "u_max_weight": "max_weight", "u_gamma": "gamma", "u_resample_penalty": "resample_penalty",
-             "u_min_sample_weight": "min_sample_weight", "u_lock_luma_tolerance": "lock_luma_tolerance",
+             "u_kernel_width": "kernel_width", "u_prior_weight": "prior_weight", "u_lock_luma_tolerance": "lock_luma_tolerance",
              "u_sharpness": "sharpness"}
     values = {field: uniforms[u] for u, field in names.items() if u in uniforms}
     if "u_lock_decay" in uniforms:

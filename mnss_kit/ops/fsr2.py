@@ -58,9 +58,10 @@ class FSR2Params:
     """The upscaler's knobs (display-value colour, canonical depth)."""
 
     max_weight: float = 12.0  # history weight cap: about that many frames of full samples
-    gamma: float = 2.5  # clamp box half-width in standard deviations of the 3x3 samples
+    gamma: float = 3.0  # clamp box half-width in standard deviations of the 3x3 samples
     resample_penalty: float = 1.0  # history weight lost per unit of the fetch's blur (sum over axes of t (1 - t))
-    min_sample_weight: float = 0.02  # a frame's least weight, so a fresh history always takes the frame
+    kernel_width: float = 0.6  # HR pixels from a sample to its kernel's first zero
+    prior_weight: float = 0.005  # weight of the Lanczos upsampled frame: what a pixel shows before samples land near it
     depth_tolerance: float = 0.02  # relative depth separation that starts a depth clip
     slope_factor: float = 2.0  # plus this many times the surface's depth step per LR pixel
     lock_contrast: float = 0.04  # luma step on both sides that makes a thin feature
@@ -234,20 +235,20 @@ def _sample_axis(n_lr: int, scale: int, shift: float):
     return u, nearest, distance
 
 
-def reconstruct_samples(current: np.ndarray, jitter, scale: int):
-    """This frame's samples at HR: the Lanczos-2 reconstruction ``(H, W, C)`` of ``current``
-    (h, w, C; 4x4 taps, weights normalised, clamped to the min and max of the 2x2 nearest
-    samples), and the sample weight ``(H, W, 1)``: Lanczos-2 of the nearest sample's distance."""
+def lanczos_upsample(current: np.ndarray, jitter, scale: int) -> np.ndarray:
+    """The Lanczos-2 upsampling ``(H, W, C)`` of ``current`` (h, w, C) with each sample where it was
+    shaded (kernel in LR pixels, 4x4 taps, weights normalised, clamp-to-edge), deringed: clamped to
+    the min and max of the 2x2 nearest samples.  The frame's estimate where no sample is near."""
     h, w = current.shape[:2]
     jx, jy = (float(v) for v in np.asarray(jitter, np.float32).reshape(2))
     axes = []
     for n_lr, shift in ((h, jy), (w, jx)):
-        u, _, distance = _sample_axis(n_lr, scale, shift)
+        u = _sample_axis(n_lr, scale, shift)[0]
         base = np.floor(u - np.float32(0.5))
         index = np.clip(base[:, None].astype(np.int64) + np.arange(-1, 3), 0, n_lr - 1)
         weights = lanczos2((u - np.float32(0.5) - base)[:, None] - np.arange(-1, 3, dtype=np.float32))
-        axes.append((index, weights / weights.sum(axis=1, keepdims=True), lanczos2(distance)))
-    (rows, wy, sy), (cols, wx, sx) = axes
+        axes.append((index, weights / weights.sum(axis=1, keepdims=True)))
+    (rows, wy), (cols, wx) = axes
     out = np.zeros((h * scale, w * scale, current.shape[2]), np.float32)
     lo = np.full_like(out, np.inf)
     hi = np.full_like(out, -np.inf)
@@ -257,7 +258,38 @@ def reconstruct_samples(current: np.ndarray, jitter, scale: int):
             out += (wy[:, a, None, None] * wx[None, :, b, None]) * tap
             if a in (1, 2) and b in (1, 2):
                 lo, hi = np.minimum(lo, tap), np.maximum(hi, tap)
-    return np.clip(out, lo, hi), (sy[:, None] * sx[None, :])[..., None]
+    return np.clip(out, lo, hi)
+
+
+def reconstruct_samples(current: np.ndarray, jitter, scale: int, kernel_width: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """This frame's samples at each HR pixel: the Lanczos-2-weighted mean ``(H, W, C)`` of the 3x3 LR
+    samples around the nearest one, the kernel on their distance to the pixel centre in HR pixels
+    (negative lobes kept, deringed to the 3x3 samples' min and max), and its total weight
+    ``(H, W, 1)``, at least 0: near 1 where a sample landed on the pixel centre, 0 where none came
+    within one HR pixel (the mean is then the nearest sample's value)."""
+    h, w = current.shape[:2]
+    jx, jy = (float(v) for v in np.asarray(jitter, np.float32).reshape(2))
+    axes = []
+    for n_lr, shift in ((h, jy), (w, jx)):
+        _, nearest, distance = _sample_axis(n_lr, scale, shift)
+        index = np.clip(nearest[:, None] + np.arange(-1, 2), 0, n_lr - 1)
+        offsets = distance[:, None] - np.float32(scale) * np.arange(-1, 2, dtype=np.float32)
+        axes.append((index, lanczos2(offsets / np.float32(kernel_width))))
+    (rows, wy), (cols, wx) = axes
+    acc = np.zeros((h * scale, w * scale, current.shape[2]), np.float32)
+    total = np.zeros((h * scale, w * scale, 1), np.float32)
+    lo = np.full_like(acc, np.inf)
+    hi = np.full_like(acc, -np.inf)
+    for a in range(3):
+        for b in range(3):
+            tap = current[rows[:, a]][:, cols[:, b]]
+            weight = (wy[:, a, None] * wx[None, :, b])[..., None]
+            acc += weight * tap
+            total += weight
+            lo, hi = np.minimum(lo, tap), np.maximum(hi, tap)
+    nearest = current[rows[:, 1]][:, cols[:, 1]]
+    mean = np.where(total > np.float32(1e-3), acc / np.maximum(total, np.float32(1e-3)), nearest)
+    return np.clip(mean, lo, hi), np.maximum(total, 0.0)
 
 
 def nearest_sample_index(h: int, w: int, jitter, scale: int) -> tuple[np.ndarray, np.ndarray]:
@@ -324,8 +356,8 @@ def accumulate(colour: np.ndarray, dilated_motion: np.ndarray, analysis: np.ndar
     output RGB in [0, 1] and its weight) and the next locks."""
     h, w = colour.shape[:2]
     current = rgb_to_ycocg(colour)
-    samples, sample_weight = reconstruct_samples(current, jitter, scale)
-    sample_weight = np.maximum(sample_weight, np.float32(params.min_sample_weight))
+    samples, sample_weight = reconstruct_samples(current, jitter, scale, params.kernel_width)
+    upsampled = lanczos_upsample(current, jitter, scale)
     rows, cols = nearest_sample_index(h, w, jitter, scale)
     lo, hi = variance_box(current, rows, cols, params.gamma)
     previous, weight, lock, spread = reproject(history, locks, dilated_motion, scale, reset)
@@ -339,7 +371,8 @@ def accumulate(colour: np.ndarray, dilated_motion: np.ndarray, analysis: np.ndar
     clamped = np.minimum(np.maximum(previous, lo), hi)
     previous = clamped + trust * (previous - clamped)
     weight = weight * (1.0 - disoccluded) * (1.0 - reactive)
-    blended = (weight * previous + sample_weight * samples) / (weight + sample_weight)
+    prior = np.float32(params.prior_weight)
+    blended = (weight * previous + sample_weight * samples + prior * upsampled) / (weight + sample_weight + prior)
     rgb = np.clip(ycocg_to_rgb(blended), 0.0, 1.0)
     next_weight = np.minimum(weight + sample_weight, np.float32(params.max_weight))
     return (np.concatenate([rgb, next_weight], axis=-1).astype(np.float32),

@@ -114,9 +114,9 @@ SamplePlace sample_place(ivec2 hr, ivec2 lr_size, vec2 jitter, int scale) {
     return s;
 }
 
-// This frame's samples at HR texel `hr`, YCoCg (rgb), deringed, and their weight (a)
-// (ops.fsr2.reconstruct_samples).
-vec4 reconstruct_samples_at(highp sampler2D color, SamplePlace s) {
+// The Lanczos-2 upsampling of the LR colour at HR texel `hr`, YCoCg, deringed to the 2x2 nearest
+// samples (ops.fsr2.lanczos_upsample).
+vec3 lanczos_upsample_at(highp sampler2D color, SamplePlace s) {
     ivec2 last = textureSize(color, 0) - 1;
     vec2 base = floor(s.u - 0.5);
     vec2 t = s.u - 0.5 - base;
@@ -138,7 +138,35 @@ vec4 reconstruct_samples_at(highp sampler2D color, SamplePlace s) {
             }
         }
     }
-    return vec4(clamp(acc, lo, hi), lanczos2(s.distance.y) * lanczos2(s.distance.x));
+    return clamp(acc, lo, hi);
+}
+
+// This frame's samples at HR texel `hr`: the Lanczos-2-weighted mean of the 3x3 samples around the
+// nearest one on their HR distance over `kernel_width`, YCoCg, deringed (rgb), and its total
+// weight, at least 0 (a) (ops.fsr2.reconstruct_samples).
+vec4 reconstruct_samples_at(highp sampler2D color, SamplePlace s, int scale, float kernel_width) {
+    ivec2 last = textureSize(color, 0) - 1;
+    float fs = float(scale);
+    vec3 acc = vec3(0.0);
+    float total = 0.0;
+    vec3 lo = vec3(1e30);
+    vec3 hi = vec3(-1e30);
+    for (int a = 0; a < 3; a++) {
+        float wy = lanczos2((s.distance.y - fs * float(a - 1)) / kernel_width);
+        int row = clamp(s.nearest.y + a - 1, 0, last.y);
+        for (int c = 0; c < 3; c++) {
+            float wx = lanczos2((s.distance.x - fs * float(c - 1)) / kernel_width);
+            int col = clamp(s.nearest.x + c - 1, 0, last.x);
+            vec3 tap = rgb_to_ycocg(texelFetch(color, ivec2(col, row), 0).rgb);
+            acc += (wy * wx) * tap;
+            total += wy * wx;
+            lo = min(lo, tap);
+            hi = max(hi, tap);
+        }
+    }
+    vec3 nearest = rgb_to_ycocg(texelFetch(color, s.nearest, 0).rgb);
+    vec3 mean = total > 1e-3 ? acc / max(total, 1e-3) : nearest;
+    return vec4(clamp(mean, lo, hi), max(total, 0.0));
 }
 
 // The YCoCg clamp box: mean +- gamma std of the 3x3 LR samples around `lr` (ops.fsr2.variance_box).

@@ -33,7 +33,8 @@ uniform int u_use_reactive;
 uniform float u_max_weight;
 uniform float u_gamma;
 uniform float u_resample_penalty;
-uniform float u_min_sample_weight;
+uniform float u_kernel_width;
+uniform float u_prior_weight;
 uniform float u_lock_decay;
 uniform float u_lock_luma_tolerance;
 
@@ -51,8 +52,9 @@ void main() {
     }
     ivec2 cell = hr / u_scale;
     SamplePlace place = sample_place(hr, lr_size, u_jitter, u_scale);
-    vec4 samples = reconstruct_samples_at(color, place);
-    float sample_weight = max(samples.a, u_min_sample_weight);
+    vec4 samples = reconstruct_samples_at(color, place, u_scale, u_kernel_width);
+    float sample_weight = samples.a;
+    vec3 upsampled = lanczos_upsample_at(color, place);
     Box box = variance_box_at(color, place.nearest, u_gamma);
     Reprojected r = reproject_at(history, locks, texelFetch(dilated, cell, 0).yz * float(u_scale), hr, u_reset != 0);
     float weight = r.weight * max(1.0 - u_resample_penalty * r.spread, 0.0);
@@ -64,7 +66,8 @@ void main() {
     vec3 clamped = min(max(r.colour, box.lo), box.hi);
     vec3 previous = clamped + trust * (r.colour - clamped);
     weight = weight * (1.0 - disoccluded) * (1.0 - reactivity);
-    vec3 blended = (weight * previous + sample_weight * samples.rgb) / (weight + sample_weight);
+    vec3 blended = (weight * previous + sample_weight * samples.rgb + u_prior_weight * upsampled) /
+                   (weight + sample_weight + u_prior_weight);
     vec3 rgb = clamp(ycocg_to_rgb(blended), 0.0, 1.0);
     imageStore(next_history, hr, round_to_half(vec4(rgb, min(weight + sample_weight, u_max_weight))));
     imageStore(next_locks, hr, round_to_half(vec4(lock, 0.0, 0.0)));
