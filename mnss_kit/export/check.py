@@ -20,7 +20,8 @@ from ..errors import UserError
 from .boundary import texture_remaps
 from ..fileio import sha256_file
 from ..gpu.passes import PASSES
-from ..gpu.plan import WEIGHTS_PREFIX
+from ..gpu.plan import WEIGHTS_PREFIX, groups
+from ..ops.jitter import subpixel_index
 from .manifest import bundle_files, read_manifest, schema_problems, sha256_bytes
 from .npu_files import NpuModel, nchw_to_nhwc, read_onnx, read_tflite
 from .sequence import input_dtypes, read_sequence_array
@@ -40,6 +41,10 @@ def check_bundle(bundle: str | Path) -> list[str]:
     if problems:  # the later checks index into the structure the schema guarantees
         return problems
     problems += check_files(root, manifest)
+    sizes = check_sizes(manifest)
+    if sizes:  # every shape, uniform and jitter entry below follows from scale and sizes
+        return problems + sizes
+    problems += check_consistency(manifest)
     bad_files = {line.split(":", 1)[0] for line in problems}
     problems += check_npu(root, manifest, bad_files)
     problems += check_boundary(manifest)
@@ -49,6 +54,92 @@ def check_bundle(bundle: str | Path) -> list[str]:
     problems += check_schedule(manifest)
     problems += check_debug_views(manifest)
     return problems
+
+
+def check_sizes(manifest: dict) -> list[str]:
+    """One line if ``scale``, ``lr_size``, ``hr_size`` and the model config's scale disagree
+    (the hashes cannot catch an edited manifest)."""
+    scale, lr, hr = manifest["scale"], manifest["lr_size"], manifest["hr_size"]
+    config_scale = (manifest["model"].get("config") or {}).get("scale")
+    disagree = []
+    if [scale * v for v in lr] != hr:
+        disagree.append(f"hr_size {hr} is not scale {scale} x lr_size {lr} ({[scale * v for v in lr]})")
+    if config_scale is not None and config_scale != scale:
+        disagree.append(f"scale {scale} differs from model.config.scale {config_scale}")
+    return [f"manifest.json: {'; '.join(disagree)}"] if disagree else []
+
+
+def check_consistency(manifest: dict) -> list[str]:
+    """What the manifest says twice agrees with itself: jitter sub-pixels, texture sizes, NPU
+    shapes, the ``u_scale`` uniforms, workgroup counts and the placement's resolution follow from
+    ``scale``, ``lr_size`` and ``hr_size``."""
+    return (_jitter_problems(manifest) + _resource_size_problems(manifest) + _npu_size_problems(manifest)
+            + _schedule_size_problems(manifest) + _placement_problems(manifest))
+
+
+def _jitter_problems(manifest: dict) -> list[str]:
+    scale, jitter = manifest["scale"], manifest["jitter"]
+    problems = []
+    if len(jitter["sequence"]) != jitter["period"]:
+        problems.append(f"manifest.json: jitter.sequence has {len(jitter['sequence'])} entries for period {jitter['period']}")
+    entries = [(f"jitter.sequence[{i}]", e["offset"], e["subpixel"]) for i, e in enumerate(jitter["sequence"])]
+    entries += [(f"golden frame {f['index']}", f["jitter"], f["subpixel"]) for f in manifest["golden"]["frames"]]
+    for where, offset, subpixel in entries:
+        expected = subpixel_index(np.asarray(offset, np.float32), scale).tolist()
+        if subpixel != expected:
+            problems.append(f"manifest.json: {where}: subpixel {subpixel} does not follow from offset {offset} "
+                            f"at scale {scale} ({expected})")
+            break  # one line: the table was made for another scale
+    return problems
+
+
+def _resource_size_problems(manifest: dict) -> list[str]:
+    allowed = [manifest["lr_size"], manifest["hr_size"], [1, 1]]  # [1, 1]: placeholders
+    return [f"manifest.json: resource '{r['name']}' is {r['size'][0]}x{r['size'][1]}, neither lr_size {manifest['lr_size']} "
+            f"nor hr_size {manifest['hr_size']}"
+            for r in manifest["resources"] if r["kind"] != "buffer" and r["size"] not in allowed]
+
+
+def _npu_size_problems(manifest: dict) -> list[str]:
+    """The NPU output is the HR image (export takes the bundle's size from it); its input is HR or LR."""
+    tensors = {t["name"]: t for t in manifest["npu"]["tensors"]}
+    problems = []
+    for role, sizes in (("outputs", [manifest["hr_size"]]), ("inputs", [manifest["hr_size"], manifest["lr_size"]])):
+        for name in manifest["npu"][role]:
+            shape = tensors.get(name, {}).get("shape")
+            if shape and len(shape) == 4 and [shape[2], shape[1]] not in sizes:
+                problems.append(f"manifest.json: NPU tensor '{name}' is {shape[2]}x{shape[1]}, the bundle's "
+                                f"{'hr_size' if role == 'outputs' else 'hr_size or lr_size'} is "
+                                f"{' or '.join(f'{w}x{h}' for w, h in sizes)}")
+    return problems
+
+
+def _schedule_size_problems(manifest: dict) -> list[str]:
+    """``u_scale`` is the bundle's scale; LR and HR grids cover their size with whole workgroups."""
+    scale, lr = manifest["scale"], tuple(manifest["lr_size"])
+    passes = {p["name"]: p for p in manifest["gpu"]["passes"]}
+    problems = []
+    for i, step in enumerate(manifest["schedule"]["steps"]):
+        if step["kind"] != "gpu" or step["pass"] not in passes:
+            continue  # check_schedule names an unknown pass
+        where = f"manifest.json: schedule step {i} ({step['pass']})"
+        value = step["uniforms"].get("u_scale", {}).get("value", scale)
+        if value != scale:
+            problems.append(f"{where}: u_scale {value}, the bundle's scale is {scale}")
+        spec = passes[step["pass"]]
+        if spec["grid"] in ("hr", "lr", "lr_layers"):
+            expected = groups(spec["grid"], tuple(spec["workgroup_size"]), lr, scale)[:2]
+            if step["groups"][:2] != expected:
+                problems.append(f"{where}: workgroups {step['groups'][0]}x{step['groups'][1]} do not cover its "
+                                f"{spec['grid'].split('_')[0]} grid ({expected[0]}x{expected[1]} needed)")
+    return problems
+
+
+def _placement_problems(manifest: dict) -> list[str]:
+    placement = manifest.get("placement")
+    if not placement or placement.get("resolution") in (None, manifest["hr_size"]):
+        return []
+    return [f"manifest.json: placement.resolution {placement['resolution']} differs from hr_size {manifest['hr_size']}"]
 
 
 def check_debug_views(manifest: dict) -> list[str]:

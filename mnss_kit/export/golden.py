@@ -68,13 +68,20 @@ def frame_from_torch(frame: dict, inputs: list[str]) -> dict:
 
 def dataset_frames(data: Path, lr_size, scale: int, inputs: list[str], n: int) -> tuple[list[dict], str] | None:
     """The first ``n`` numpy frames (``inputs``) of the first sequence in dataset ``data`` at
-    ``lr_size`` and ``scale`` with that many frames, and where they came from; None if none fits."""
+    ``lr_size`` and ``scale`` with that many frames, and where they came from; None if no sequence
+    has that size, ``UserError`` if those that have it are shorter than ``n`` frames."""
     from ..dataset.format import extra_buffers_of
     from ..dataset.loader import eval_sequences
 
-    for seq in eval_sequences(data, **extra_buffers_of(inputs), progress=False):
-        if tuple(seq.meta.lr_size) == tuple(lr_size) and seq.meta.scale == scale and len(seq) >= n:
+    fitting = [seq for seq in eval_sequences(data, **extra_buffers_of(inputs), progress=False)
+               if tuple(seq.meta.lr_size) == tuple(lr_size) and seq.meta.scale == scale]
+    for seq in fitting:
+        if len(seq) >= n:
             return first_frames(seq, n, inputs), f"dataset {data}, sequence {seq.name}, frames 0..{n - 1}"
+    if fitting:
+        longest = max(fitting, key=len)
+        raise UserError(f"--golden-frames {n}: the longest sequence of {data} at {lr_size[0]}x{lr_size[1]} "
+                        f"('{longest.name}') has {len(longest)} frames; ask for at most {len(longest)}")
     return None
 
 
@@ -162,3 +169,30 @@ def _table_index(jitter: np.ndarray, table: list[dict]) -> int | None:
         if np.array_equal(np.float32(entry["offset"]), np.float32(jitter)):
             return entry["index"]
     return None
+
+
+def tolerance_of(manifest: dict, key: str) -> int:
+    """Golden tolerance of array ``key`` (LSB or display codes, ``TOLERANCES`` keys in the manifest); 0 for inputs."""
+    roles = {r["name"]: r["role"] for r in manifest["resources"]}
+    tolerances = manifest["golden"]["tolerances"]
+    if roles.get(key) == "output":
+        return int(tolerances.get("display_codes", 0))
+    for b in manifest["boundary"]:
+        if b["buffer"]["resource"] == key:
+            return int(tolerances.get("npu_input_lsb" if b["direction"] == "gpu->npu" else "npu_output_lsb", 0))
+    return 0
+
+
+def golden_mismatch(manifest: dict, index: int, got: dict[str, np.ndarray], want: dict[str, np.ndarray]) -> str | None:
+    """What differs between a replay of golden frame ``index`` and its stored arrays beyond the
+    manifest's tolerances (``"npu_output: 2000 of 9216 values (max 255)"``, one clause per array), or None."""
+    clauses = []
+    for key, expected in want.items():
+        if key not in got:
+            continue
+        actual = np.asarray(got[key]).astype(np.float64).reshape(expected.shape)
+        diff = np.abs(actual - expected.astype(np.float64))
+        beyond = int(np.count_nonzero(diff > tolerance_of(manifest, key)))
+        if beyond:
+            clauses.append(f"{key} {beyond} of {diff.size} values (max {diff.max():g})")
+    return ", ".join(clauses) or None
