@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..errors import UserError
 from ..ops.runtimes import DEFAULT_RUNTIME, runtime_names
 
 HELP = "run a bundle on the desktop (bit-exact NPU profiles, GPU passes in numpy or Mesa), or compare tensor dumps"
@@ -62,6 +63,7 @@ def _emulate(args: argparse.Namespace) -> int:
 
     profile = args.npu_profile or (runtime_names("onnxruntime")[0] if args.npu_backend == "onnxruntime" else DEFAULT_RUNTIME)
     emulator = Emulator(args.bundle, profile, args.npu_backend, args.gpu_backend)
+    check_golden_sequences(emulator, args.data, args.frames)
     report = run_dataset(emulator, args.data, out_dir=args.out, dump=args.dump, frames=args.frames,
                          overwrite=args.overwrite, progress=not args.no_progress)
     log = logging.getLogger("mnss_kit.emulate")
@@ -71,6 +73,62 @@ def _emulate(args: argparse.Namespace) -> int:
         log.info("%s: %d frames, median %.3f s per frame%s", name, s["frames"], s.get("median_seconds_total", 0.0), psnr)
     log.info("wrote %s", args.out / "metrics.json")
     return 0
+
+
+def check_golden_sequences(emulator, data: Path, frames: int | None) -> None:
+    """Where ``data`` holds the bundle's own golden sequence, its first frames must come out as the
+    golden arrays (within the manifest's tolerances); ``UserError`` before anything is written if not.
+
+    Only with the golden profile: another runtime's rounding may legitimately differ."""
+    import logging
+
+    from ..dataset.format import find_sequences, read_meta
+    from ..export.golden import golden_mismatch
+    from ..export.reader import open_bundle
+
+    spec = emulator.spec
+    if emulator.npu_profile != spec.profile:
+        logging.getLogger("mnss_kit.emulate").debug("golden frames not compared: they follow %s, not %s",
+                                                    spec.profile, emulator.npu_profile)
+        return
+    bundle = open_bundle(spec.source, verify=False)  # verified when the emulator opened it
+    count = min(len(spec.manifest["golden"]["frames"]), frames or 10**9)
+    for seq_dir in find_sequences(data):
+        if not _is_golden_sequence(bundle, seq_dir, read_meta(seq_dir), emulator, count):
+            continue
+        emulator.reset()
+        for i in range(count):
+            emulator.run_frame(bundle.golden_inputs(i))
+            want = {k: v for k, v in bundle.golden(i).items() if k not in emulator.runner.inputs}
+            got = {k: emulator.runner.values[k] for k in want}
+            mismatch = golden_mismatch(spec.manifest, i, got, want)
+            if mismatch:
+                raise UserError(f"{spec.source}: sequence '{seq_dir.name}' is the bundle's golden sequence, but its frame {i} "
+                                f"differs from golden/frame_{i:03d}: {mismatch} beyond the manifest's tolerances")
+        emulator.reset()
+        logging.getLogger("mnss_kit.emulate").info("%s: frames 0..%d reproduce the bundle's golden frames", seq_dir.name, count - 1)
+
+
+def _is_golden_sequence(bundle, seq_dir: Path, meta, emulator, count: int) -> bool:
+    """The first ``count`` frames of the sequence are the golden inputs (as their textures hold them)."""
+    import numpy as np
+
+    from .sequence import sequence_frames
+
+    if meta.scale != emulator.spec.scale or tuple(meta.lr_size) != emulator.spec.lr_size or meta.frame_count < count:
+        return False  # run_dataset refuses or skips it with its own line
+    try:
+        frames = sequence_frames(seq_dir, meta, count, emulator.runner.inputs)
+        for i, (_, frame, _) in enumerate(frames):
+            golden = bundle.golden(i)
+            entry = bundle.manifest["golden"]["frames"][i]
+            if not np.array_equal(np.float32(frame["jitter"]), np.float32(entry["jitter"])):
+                return False
+            if any(not np.array_equal(frame[k].astype(golden[k].dtype), golden[k]) for k in emulator.runner.inputs):
+                return False
+    except UserError:
+        return False  # a sequence lacking a buffer: run_dataset names it
+    return True
 
 
 def _compare(args: argparse.Namespace) -> int:
