@@ -74,11 +74,12 @@ def retarget(graph, module, hr_size: tuple[int, int]):
     return out
 
 
-def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], method: str, progress: bool) -> NpuArtifacts:
+def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], method: str, progress: bool,
+                jitter: str | None = None) -> NpuArtifacts:
     """Quantize the model's NPU stage (defaults of ``mnss-kit quantize``) and write its files for ``hr_size``.
 
     ``data``: dataset directory for calibration; None renders the quantize stage's default
-    calibration data.
+    calibration data at the model's scale with the ``jitter`` pattern it runs with.
     """
     import tempfile
 
@@ -88,7 +89,8 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
     from ..quantize.tflite_writer import to_tflite
 
     with tempfile.TemporaryDirectory(prefix="mnss-export-calibration-") as tmp:
-        root = Path(data) if data else quantize_api.render_calibration_data(Path(tmp), progress, with_reference=False)
+        root = Path(data) if data else quantize_api.render_calibration_data(Path(tmp), progress, with_reference=False,
+                                                                            scale=model.scale, jitter=jitter)
         sequences = quantize_api.open_data(root, model.scale, family=family_of(model))
         samples_wanted = quantize_api.CALIBRATION_SAMPLES
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", samples_wanted, root)

@@ -63,10 +63,13 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
         _check_same_model(report, ckpt, request.model)
     hr_size = _bundle_size(request, npu, model.scale)
     lr_size = (hr_size[0] // model.scale, hr_size[1] // model.scale)
+    if request.data is not None:  # before the slow part
+        check_data(request.data, model.scale, Path(ckpt).stem, lr_size, request.golden_frames)
     placement = _placement(model, request, hr_size, Path(ckpt).stem)
     clock.lap("load")
     if npu is None:
-        npu = quantize_at(model, Path(ckpt).stem, request.data, hr_size, request.method, request.progress)
+        npu = quantize_at(model, Path(ckpt).stem, request.data, hr_size, request.method, request.progress,
+                          jitter=checkpoint.bundle_pattern(record))
     clock.lap("quantize")
     tflite = read_tflite(npu.tflite)
     _check_npu_io(tflite)
@@ -240,18 +243,44 @@ def model_section(ckpt: str, record: dict) -> dict:
     }
 
 
+def check_data(data: Path, scale: int, model_id: str, lr_size: tuple[int, int], golden_frames: int) -> None:
+    """``--data`` exists, every sequence in it is at the model's scale (frames of another scale can
+    neither calibrate the model nor serve as its golden frames), and if sequences at the bundle's
+    LR size are there, one has the golden frames asked for."""
+    from ..dataset.format import find_sequences, read_meta
+
+    if not data.is_dir():
+        raise UserError(f"--data {data}: not a directory")
+    fitting = {}
+    for seq_dir in find_sequences(data):
+        meta = read_meta(seq_dir)
+        if meta.scale != scale:
+            raise UserError(f"{seq_dir}: sequence '{meta.name}' is x{meta.scale}, but {model_id} is x{scale}; "
+                            f"give --data of the model's scale")
+        if tuple(meta.lr_size) == tuple(lr_size):
+            fitting[meta.name] = meta.frame_count
+    if fitting and max(fitting.values()) < golden_frames:
+        name = max(fitting, key=fitting.get)
+        raise UserError(f"--golden-frames {golden_frames}: the longest sequence of {data} at {lr_size[0]}x{lr_size[1]} "
+                        f"('{name}') has {fitting[name]} frames; ask for at most {fitting[name]}")
+
+
 def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: str, inputs: list[str]) -> tuple[list[dict], str]:
     """``golden_frames`` consecutive numpy frames at ``lr_size``: from ``request.data`` when a sequence
-    there has that size, else rendered (built-in scene, EGL)."""
+    there has that size (``UserError`` if none is long enough), else rendered (built-in scene, EGL),
+    with a warning when data was given."""
     from ..dataset.format import extra_buffers_of
     from ..dataset.loader import eval_sequences
     from .golden import dataset_frames, first_frames
 
     n = request.golden_frames
-    if request.data is not None and request.data.is_dir():
+    if request.data is not None:
         found = dataset_frames(request.data, lr_size, scale, inputs, n)
         if found is not None:
             return found
+        log.warning("%s has no sequence at the bundle's LR size %dx%d: the golden frames are rendered from the built-in "
+                    "scene '%s' instead (give --data at that size, or --resolution %dx%d, to use your frames)",
+                    request.data, *lr_size, GOLDEN_SCENE, *_data_hr_size(request.data))
     with tempfile.TemporaryDirectory(prefix="mnss-export-golden-") as tmp:
         from ..render.config import RenderConfig, SequenceConfig
         from ..render.writer import render_dataset
@@ -261,3 +290,11 @@ def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: st
         render_dataset(RenderConfig(sequences=[seq_cfg]), Path(tmp), progress=request.progress)
         seq = eval_sequences(Path(tmp), **extra_buffers_of(inputs), progress=False)[0]
         return first_frames(seq, n, inputs), f"rendered: built-in scene '{GOLDEN_SCENE}', seed 1, frames 0..{n - 1}"
+
+
+def _data_hr_size(data: Path) -> tuple[int, int]:
+    """The HR size of the first sequence of ``data`` (the size an export using its frames would run at)."""
+    from ..dataset.format import find_sequences, read_meta
+
+    meta = read_meta(find_sequences(data)[0])
+    return tuple(meta.hr_size)

@@ -43,7 +43,7 @@ def quantize(request: QuantizeRequest):
 
     from ..errors import UserError
     from ..fileio import atomic_directory
-    from ..model.checkpoint import identity, load
+    from ..model.checkpoint import bundle_pattern, identity, load
     from ..model.families import family_of, npu_module
     from .stage import QuantizeOptions, quantize_module, write_artifacts
 
@@ -63,7 +63,8 @@ def quantize(request: QuantizeRequest):
     with tempfile.TemporaryDirectory(prefix="mnss-quantize-") as tmp:
         if r.eval_data:  # fail before the slow part
             open_data(r.eval_data, model.scale, "evaluation", family)
-        data = r.data if r.data else render_calibration_data(Path(tmp), progress=r.progress)
+        data = r.data if r.data else render_calibration_data(Path(tmp), progress=r.progress, scale=model.scale,
+                                                             jitter=bundle_pattern(record))
         sequences = open_data(data, model.scale, family=family)
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", r.frames, data)
         samples = calibration_samples(model, sequences, r.frames, progress=r.progress)
@@ -80,8 +81,10 @@ def quantize(request: QuantizeRequest):
     return art, files
 
 
-def render_calibration_data(root: Path, progress: bool, with_reference: bool = True, overrides: list[str] | None = None) -> Path:
-    """Render the default calibration data config into ``root`` (EGL); returns the dataset directory.
+def render_calibration_data(root: Path, progress: bool, with_reference: bool = True, overrides: list[str] | None = None,
+                            scale: int = 2, jitter: str | None = None) -> Path:
+    """Render the default calibration data config into ``root`` (EGL) at the model's ``scale`` and
+    ``jitter`` pattern (None: the config's); returns the dataset directory.
 
     Without ``with_reference`` the HR reference gets one sample per pixel: calibration reads LR
     frames only, which do not depend on the HR sample count, and the supersampled reference (what
@@ -90,7 +93,8 @@ def render_calibration_data(root: Path, progress: bool, with_reference: bool = T
     from ..render.config import load_render_config
     from ..render.writer import render_dataset
 
-    overrides = [*(overrides or []), *([] if with_reference else ["hr_samples=1"])]
+    overrides = [*(overrides or []), *([] if with_reference else ["hr_samples=1"]), f"scale={scale}",
+                 *([f"jitter={jitter}"] if jitter else [])]
     render_dataset(load_render_config(DEFAULT_DATA_CONFIG, overrides or None), root, progress=progress)
     return root
 
