@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
+import functools
+import io
 import os
+import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -38,11 +43,15 @@ def read_exr(path: str | os.PathLike, channels: tuple[str, ...] | None = None) -
     path = Path(path)
     if not path.is_file():
         raise UserError(f"missing file: {path}")
+    if _is_lfs_pointer(path):
+        raise UserError(f"{path}: a Git LFS pointer, not the EXR image (fetch the files with `git lfs pull` "
+                        "in the repository they came from)")
     try:
-        with OpenEXR.File(str(path), separate_channels=True) as f:
+        with _quiet_stderr(), OpenEXR.File(str(path), separate_channels=True) as f:
             chans = {k: v.pixels for k, v in f.channels().items()}
     except Exception as e:  # the bindings raise plain exceptions for corrupt files
-        raise UserError(f"cannot read {path}: not a valid OpenEXR file ({str(e).splitlines()[0][:120]})") from None
+        first = (str(e).splitlines() or [type(e).__name__])[0]
+        raise UserError(f"cannot read {path}: not a valid OpenEXR file ({first[:120]})") from None
     if channels is None:
         for names in (("R", "G", "B", "A"), ("R", "G", "B"), ("R", "G"), ("Z",), ("Y",)):
             if set(names) == set(chans):
@@ -54,3 +63,83 @@ def read_exr(path: str | os.PathLike, channels: tuple[str, ...] | None = None) -
     if missing:
         raise UserError(f"{path}: missing channel(s) {', '.join(missing)} (has {', '.join(sorted(chans))})")
     return np.stack([chans[c].astype(np.float32) for c in channels], axis=-1)
+
+
+LFS_POINTER_PREFIX = b"version https://git-lfs"
+LFS_POINTER_MAX_BYTES = 1024  # a pointer is three short text lines (about 130 bytes)
+
+
+def _is_lfs_pointer(path: Path) -> bool:
+    """A Git LFS pointer file checked out in place of the image (the repository was cloned without LFS)."""
+    if path.stat().st_size > LFS_POINTER_MAX_BYTES:
+        return False
+    with open(path, "rb") as f:
+        return f.read(len(LFS_POINTER_PREFIX)) == LFS_POINTER_PREFIX
+
+
+_quiet = {"lock": threading.Lock(), "depth": 0, "saved": None, "streams": None}  # shared by threads reading at once
+
+
+@contextlib.contextmanager
+def _quiet_stderr():
+    """Output silenced for the block: on a corrupt file the OpenEXR library writes its own messages
+    (the C++ core to fd 2, the bindings a warning through Python's ``sys.stdout``) ahead of the one
+    line the toolkit reports.  File descriptors 1 and 2 point at /dev/null and ``sys.stdout`` /
+    ``sys.stderr`` at a discarding buffer; C's buffers are flushed before the descriptors come back,
+    so nothing surfaces later.  Reference-counted: the first reader redirects, the last one
+    restores, so threads reading together never restore /dev/null."""
+    with _quiet["lock"]:
+        if _quiet["depth"] == 0:
+            _quiet["saved"] = _redirect_to_null()
+            _quiet["streams"] = sys.stdout, sys.stderr
+            sys.stdout = sys.stderr = io.StringIO()
+        _quiet["depth"] += 1
+    try:
+        yield
+    finally:
+        with _quiet["lock"]:
+            _quiet["depth"] -= 1
+            if _quiet["depth"] == 0:
+                sys.stdout, sys.stderr = _quiet["streams"]
+                _restore_descriptors(_quiet["saved"])
+                _quiet["saved"] = _quiet["streams"] = None
+
+
+def _restore_descriptors(saved: list[int] | None) -> None:
+    if not saved:
+        return
+    _flush_c_streams()
+    for fd, copy in zip((1, 2), saved):
+        os.dup2(copy, fd)
+        os.close(copy)
+
+
+def _redirect_to_null() -> list[int] | None:
+    """Copies of fd 1 and 2, which now point at /dev/null (None where they cannot be duplicated)."""
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        saved = [os.dup(1), os.dup(2)]
+    except (OSError, ValueError, AttributeError):  # no usable descriptors (embedded interpreter)
+        return None
+    with open(os.devnull, "wb") as null:
+        os.dup2(null.fileno(), 1)
+        os.dup2(null.fileno(), 2)
+    return saved
+
+
+@functools.lru_cache(maxsize=1)
+def _libc():
+    import ctypes
+
+    try:
+        return ctypes.CDLL(None)
+    except OSError:
+        return None
+
+
+def _flush_c_streams() -> None:
+    """``fflush(NULL)``: C stdio output (C++'s cout goes through it) is written while fd 1 and 2 still point at /dev/null."""
+    libc = _libc()
+    if libc is not None and hasattr(libc, "fflush"):
+        libc.fflush(None)

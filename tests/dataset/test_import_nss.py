@@ -94,7 +94,19 @@ def ratio_does_not_divide(cap):
 
 
 def missing_frame(cap):
-    (cap / "motion_gt" / "0000" / "0004.exr").unlink()
+    """A file missing in the middle: pairing the rest by position would give them the wrong frames."""
+    (cap / "motion_gt" / "0000" / "0002.exr").unlink()
+
+
+def lfs_pointer(cap):
+    (cap / "x2" / "color" / "0000" / "0001.exr").write_text(
+        "version https://git-lfs.github.com/spec/v1\n"
+        "oid sha256:4d7a214614ab2935c943f9e0ff69d22eadbb8f32b1258daaa5e2ca24d17e2393\nsize 24593\n")
+
+
+def truncated_exr(cap):
+    path = cap / "ground_truth" / "0000" / "0003.exr"
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
 
 
 def nan_colour(cap):
@@ -106,15 +118,19 @@ def nan_colour(cap):
     (drop_version, "0000.json: missing key 'Version'"),
     (wrong_lr_size, "0003.exr: size 15x8, expected 16x8"),
     (ratio_does_not_divide, "TargetResolution 33x16 is not divisible by ratio 2"),
-    (missing_frame, "motion_gt/0000: 4 frame file(s), but"),
+    (missing_frame, "motion_gt/0000: frame file 0003.exr where"),
+    (lfs_pointer, "x2/color/0000/0001.exr: a Git LFS pointer, not the EXR image"),
+    (truncated_exr, "ground_truth/0000/0003.exr: not a valid OpenEXR file"),
     (nan_colour, "fails data check (1 error(s)), first: error: x2/0000/lr/color/00001.exr: 384 NaN/Inf value(s)"),
 ], ids=lambda v: getattr(v, "__name__", ""))
-def test_bad_captures_fail_in_one_line_and_leave_nothing(tmp_path, capsys, damage, message):
+def test_bad_captures_fail_in_one_line_and_leave_nothing(tmp_path, capfd, damage, message):
+    """capfd: what the OpenEXR library itself writes to fd 1 and 2 counts too."""
     write_nss_capture(tmp_path / "cap")
     damage(tmp_path / "cap")
-    code, out, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
+    code, out, err = run_import(capfd, tmp_path / "cap", tmp_path / "out")
     assert code == 2
     assert message in err and len(err.strip().splitlines()) == 1, err
+    assert not out.strip(), out
     assert not (tmp_path / "out").exists()
     assert not list(tmp_path.glob(".out.*"))  # no staging directory left behind
 
@@ -134,3 +150,34 @@ def test_every_sequence_becomes_one_sequence_of_the_ratio_dataset(tmp_path, caps
     assert [read_meta(s).frame_count for s in seqs] == [3, 4]
     for seq, cap in zip(seqs, (first, second)):
         assert np.array_equal(read_raw_buffer(seq, "lr", "motion", 2), cap["x2/motion"][2])
+
+
+def arm_sample_layout(cap, present: int) -> None:
+    """Arm's sample captures: the JSON lists every frame, the buffers ship only the first ones."""
+    for folder in [p for p in cap.rglob("0000") if p.is_dir()]:
+        for path in sorted(folder.glob("*.exr"))[present:]:
+            path.unlink()
+
+
+def test_arm_sample_layout_imports_the_frames_present_and_passes_data_check(tmp_path, capsys):
+    cap = write_nss_capture(tmp_path / "cap", frames=5, cut_at=3)
+    arm_sample_layout(tmp_path / "cap", 2)
+    code, out, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
+    assert code == 0, err
+    assert "frame files for 2 of the 5 frames 0000.json lists (3 missing); imported frames 0..1" in out
+    assert "imported 1 sequence(s), 2 frames" in out
+    (seq,) = find_sequences(tmp_path / "out" / "x2")
+    meta = read_meta(seq)
+    assert meta.frame_count == 2 and meta.scene["frames_listed"] == 5
+    for i in range(2):  # paired with the first Frames entries
+        frame = cap["json"]["Frames"][i]
+        assert meta.frames[i].jitter == (frame["Jitter"]["X"], frame["Jitter"]["Y"])
+        assert np.array_equal(read_raw_buffer(seq, "lr", "color", i), cap["x2/color"][i][..., :3])
+    assert cli.main(["data", "check", str(tmp_path / "out" / "x2")]) == 0
+
+
+def test_a_buffer_with_more_files_than_frames_is_refused(tmp_path, capsys):
+    write_nss_capture(tmp_path / "cap", frames=3)
+    write_exr(tmp_path / "cap" / "x2" / "depth" / "0000" / "0003.exr", np.zeros((8, 16, 1), np.float32), half=False)
+    code, _, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
+    assert code == 2 and "x2/depth/0000: 4 frame file(s), but" in err and "lists 3 frames" in err

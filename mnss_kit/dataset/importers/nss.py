@@ -72,23 +72,26 @@ def import_nss(src: str | Path, out: str | Path, overwrite: bool = False) -> Imp
         raise UserError(f"{src}: no integer upscaling ratio of 2 or more (found {', '.join('x' + r.name for r in ratios)}); "
                         "the toolkit trains integer scales only")
 
+    written = []  # frames written per sequence and ratio
+
     def write(staging: Path) -> list[Path]:
         for ratio in trainable:
             for name, data in sequences.items():
-                write_sequence(src, name, data, ratio, len(ratios), staging / f"x{ratio.name}" / name)
+                count, note = write_sequence(src, name, data, ratio, len(ratios), staging / f"x{ratio.name}" / name)
+                written.append(count)
+                notes.extend([note] if note else [])
         return [staging / f"x{r.name}" for r in trainable]
 
     warnings = publish(out, write, overwrite)
-    frames = sum(len(d["Frames"]) for d in sequences.values()) * len(trainable)
-    return ImportResult([str(Path(out) / f"x{r.name}") for r in trainable], len(sequences), frames, notes, warnings)
+    return ImportResult([str(Path(out) / f"x{r.name}") for r in trainable], len(sequences), sum(written), notes, warnings)
 
 
 def _untrainable_note(src: Path, ratio: Ratio, sequences: dict[str, dict]) -> str:
     """What a fractional ratio (or x1) holds, its frame files counted against ``Frames``, and why it is not written."""
+    frames = 0
     for name, data in sequences.items():
-        for buffer in LR_BUFFERS:
-            _frame_files(src / f"x{ratio.name}" / buffer / name, len(data["Frames"]), data["_path"])
-    frames = sum(len(d["Frames"]) for d in sequences.values())
+        folders = [src / f"x{ratio.name}" / buffer / name for buffer in LR_BUFFERS]
+        frames += len(_present_frames(folders, len(data["Frames"]), data["_path"])[0][folders[0]])
     why = "is fractional" if "_" in ratio.name else "does not upscale"
     return (f"x{ratio.name}: {frames} frames found, not imported: ratio {ratio.value:g} {why} and is not yet "
             "trainable (the toolkit's models upscale by an integer factor of 2 or more)")
@@ -136,23 +139,26 @@ def _type_name(types) -> str:
                                                dict: "an object", list: "a list"}[types]
 
 
-def write_sequence(src: Path, name: str, data: dict, ratio: Ratio, ratio_count: int, dest: Path) -> None:
-    """Write sequence ``name`` at ``ratio`` as one dataset sequence in ``dest``."""
+def write_sequence(src: Path, name: str, data: dict, ratio: Ratio, ratio_count: int, dest: Path) -> tuple[int, str | None]:
+    """Write sequence ``name`` at ``ratio`` as one dataset sequence in ``dest``: the frames every
+    buffer has files for.  Returns their count and a warning when ``Frames`` lists more."""
     where = data["_path"]
     scale = int(ratio.name)
     hr_size = (data["TargetResolution"]["X"], data["TargetResolution"]["Y"])
     if hr_size[0] % scale or hr_size[1] % scale:
         raise UserError(f"{where}: TargetResolution {hr_size[0]}x{hr_size[1]} is not divisible by ratio {scale}")
     lr_size = (hr_size[0] // scale, hr_size[1] // scale)
-    frames = data["Frames"]
+    folders = {b: src / f"x{ratio.name}" / b / name for b in LR_BUFFERS}
+    folders |= {b: src / b / name for b in ("ground_truth", "motion_gt")}
+    present, missing_note = _present_frames(list(folders.values()), len(data["Frames"]), where)
+    files = {b: present[folder] for b, folder in folders.items()}
+    frames = data["Frames"][:len(files["color"])]
     depth = DepthPlan.of(frames, data["ReverseZ"], where)
     exposure = [float(f.get("Exposure", 1.0)) for f in frames]
     if not all(e > 0 for e in exposure):
         raise UserError(f"{where}: Exposure must be > 0 (got {min(exposure)})")
     baked = len(set(exposure)) > 1  # the format holds one exposure per sequence: bake a changing one
     jitter_index = _jitter_index(data, ratio, ratio_count)
-    files = {b: _frame_files(src / f"x{ratio.name}" / b / name, len(frames), where) for b in LR_BUFFERS}
-    files |= {b: _frame_files(src / b / name, len(frames), where) for b in ("ground_truth", "motion_gt")}
     metas = []
     for i, frame in enumerate(frames):
         factor = np.float32(exposure[i] if baked else 1.0)
@@ -173,8 +179,10 @@ def write_sequence(src: Path, name: str, data: dict, ratio: Ratio, ratio_count: 
         buffers={"lr": list(LR_BUFFERS), "hr": ["reference", "motion"]},
         scene={"importer": "nss", "source": str(src), "nss_version": data["Version"], "ratio": f"x{ratio.name}",
                "samples": data["Samples"], "emulated_framerate": data["EmulatedFramerate"],
-               "exposure_baked_into_colour": baked, "depth_converted_to_linear": depth.encoding == "linear"},
+               "exposure_baked_into_colour": baked, "depth_converted_to_linear": depth.encoding == "linear",
+               "frames_listed": len(data["Frames"])},
     ))
+    return len(frames), missing_note
 
 
 def _frame_files(folder: Path, count: int, where: str) -> list[Path]:
@@ -182,9 +190,33 @@ def _frame_files(folder: Path, count: int, where: str) -> list[Path]:
     if not folder.is_dir():
         raise UserError(f"missing folder {folder} (the capture's buffers for {where})")
     files = sorted(p for p in folder.glob("*.exr") if not p.name.startswith("."))
-    if len(files) != count:
+    if len(files) > count:
         raise UserError(f"{folder}: {len(files)} frame file(s), but {where} lists {count} frames")
+    if not files:
+        raise UserError(f"{folder}: no frame files (.exr), but {where} lists {count} frames")
     return files
+
+
+def _present_frames(folders: list[Path], count: int, where: str) -> tuple[dict[Path, list[Path]], str | None]:
+    """The first frames every buffer folder has files for, paired by position as Arm's reader does
+    (Arm's sample captures ship fewer frame files than ``Frames`` lists), and a warning counting the
+    frames left out; ``UserError`` if the folders' first files do not carry the same names (a file
+    missing in the middle would pair the rest with the wrong frames)."""
+    files = {folder: _frame_files(folder, count, where) for folder in folders}
+    n = min(len(f) for f in files.values())
+    first = folders[0]
+    for folder in folders[1:]:
+        names, expected = [p.name for p in files[folder][:n]], [p.name for p in files[first][:n]]
+        if names != expected:
+            odd = next(a for a, b in zip(names, expected) if a != b)
+            raise UserError(f"{folder}: frame file {odd} where {first} has {expected[names.index(odd)]} "
+                            "(a frame file missing; files pair with Frames by position)")
+    present = {folder: f[:n] for folder, f in files.items()}
+    if n == count:
+        return present, None
+    short = min(files, key=lambda f: len(files[f]))
+    return present, (f"warning: {short}: frame files for {n} of the {count} frames {Path(where).name} lists "
+                     f"({count - n} missing); imported frames 0..{n - 1}, as Arm's reader does")
 
 
 def _read(path: Path, channels: tuple[str, ...], size: tuple[int, int]) -> np.ndarray:
