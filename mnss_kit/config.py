@@ -46,11 +46,19 @@ def read_yaml(path: str | Path) -> dict:
     if not path.is_file():
         raise UserError(f"config file not found: {path}")
     try:
-        data = parse_yaml(path.read_text())
+        data = parse_yaml(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as e:  # a binary file (or another encoding) given as a config
+        raise UserError(f"{path}: not a YAML text file (byte {e.start} is not UTF-8)") from None
+    except OSError as e:
+        raise UserError(f"{path}: cannot read ({e.strerror})") from None
+    except yaml.reader.ReaderError as e:  # control characters: a binary file that happens to decode
+        code = e.character if isinstance(e.character, int) else ord(e.character)
+        raise UserError(f"{path}: not a YAML text file (control character U+{code:04X} at offset {e.position})") from None
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         where = f" line {mark.line + 1}" if mark else ""
-        raise UserError(f"{path}:{where} is not valid YAML ({getattr(e, 'problem', e)})") from None
+        problem = " ".join(str(getattr(e, "problem", None) or e).split())  # one line
+        raise UserError(f"{path}:{where} is not valid YAML ({problem})") from None
     if data is None:
         data = {}
     if not isinstance(data, dict):
