@@ -70,6 +70,8 @@ def quantize(request: QuantizeRequest):
         samples = calibration_samples(model, sequences, r.frames, progress=r.progress)
         options = QuantizeOptions(method=r.method, int16=r.a16, qat_steps=r.qat)
         art = quantize_module(npu_module(model), samples, options, name=Path(r.model).stem)
+        if r.a16:
+            check_int16_count(r.a16, art, log)
         art.report["data"] = str(r.data) if r.data else f"rendered mnss_kit/configs/data/{DEFAULT_DATA_CONFIG}.yaml"
         art.report["checkpoint"] = identity(r.model, record)  # export checks it is given this very file
         if r.pipeline_frames:
@@ -79,6 +81,22 @@ def quantize(request: QuantizeRequest):
     with atomic_directory(r.out, overwrite=r.overwrite) as staging:
         files = write_artifacts(art, staging)
     return art, files
+
+
+def check_int16_count(wanted: int, art, log) -> None:
+    """``--a16 N`` above the graph's activation tensors is refused (nothing is written); fewer
+    tensors made 16-bit than asked (LiteRT cannot hold some in int16) is said in a warning."""
+    from ..errors import UserError
+
+    graph = art.graph
+    tensors = sum(1 for n in graph.activations()  # the int8 <-> int16 conversions added for --a16 aside
+                  if graph.producer(n) is None or graph.producer(n).kind != "QUANTIZE")
+    if wanted > tensors:
+        raise UserError(f"--a16 {wanted}: the NPU graph has {tensors} activation tensors; ask for at most {tensors}")
+    chosen, skipped = art.report.get("int16") or [], art.report.get("int16_skipped") or {}
+    if len(chosen) < wanted:
+        log.warning("--a16 %d: %d tensor(s) given 16-bit activations; %d of the most sensitive cannot be int16 in LiteRT "
+                    "(first: '%s', %s)", wanted, len(chosen), len(skipped), *next(iter(skipped.items()), ("-", "-")))
 
 
 def render_calibration_data(root: Path, progress: bool, with_reference: bool = True, overrides: list[str] | None = None,
