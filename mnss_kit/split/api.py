@@ -6,6 +6,9 @@ from pathlib import Path
 
 DEFAULT_RESOLUTION = (1280, 720)  # output (HR) size the estimates and bundles are made for
 DEFAULT_RESOLUTION_TEXT = f"{DEFAULT_RESOLUTION[0]}x{DEFAULT_RESOLUTION[1]}"
+# Largest output side accepted: 8K UHD fits; a frame beyond it exceeds what phone GPUs allocate as
+# one texture (a 16384-wide HR history alone would be 2 GiB of rgba16f) and any display they drive.
+MAX_OUTPUT_SIDE = 8192
 
 
 def parse_resolution(text: str) -> tuple[int, int]:
@@ -18,6 +21,9 @@ def parse_resolution(text: str) -> tuple[int, int]:
     w, h = (int(p) for p in parts)
     if w < 1 or h < 1:
         raise UserError(f"--resolution must be positive, got '{text}'")
+    if max(w, h) > MAX_OUTPUT_SIDE:
+        raise UserError(f"--resolution {text}: at most {MAX_OUTPUT_SIDE} pixels a side (8K UHD is 7680x4320); "
+                        "no device profile's GPU holds a larger frame")
     return w, h
 
 
