@@ -1,16 +1,15 @@
 """Emulator time per 1280x720 output frame (numpy backends), with a per-stage and per-NPU-op profile.
 
-A bundle of the default MNSS x2 config (perturbed untrained weights: the cost does not depend on
-training) is exported at 1280x720 (calibrated on a small synthetic sequence, golden frame rendered
-by the built-in renderer), then a synthetic sequence at 640x360 is run frame after frame
-through :class:`mnss_kit.emulate.frame_loop.Emulator` (recurrent state included).  Reported, as
-medians over the timed frames (the first frame, a reset, is a warm-up and not timed):
+A bundle of the default model (``mnss_kit.zoo.DEFAULT_MODEL``, ``ntaau_x2``, its shipped weights)
+is exported at 1280x720 (calibrated on a small synthetic sequence, golden frame rendered by the
+built-in renderer), then a synthetic sequence at 640x360 is run frame after frame through
+:class:`mnss_kit.emulate.frame_loop.Emulator` (recurrent state included).  Reported, as medians
+over the timed frames (the first frame, a reset, is a warm-up and not timed):
 
-* seconds per frame: total, GPU passes before / after the NPU, NPU stage (wall clock), and the
-  process CPU time per frame with the load average (on a busy shared machine wall time
-  overstates the work);
+* seconds per frame: total, GPU passes, NPU stage (wall clock), and the process CPU time per
+  frame with the load average (on a busy shared machine wall time overstates the work);
 * per NPU operator: seconds, and for convolutions the accumulation and requantization split;
-* per GPU pass: process CPU seconds per frame (median);
+* per GPU pass of the bundle's schedule: process CPU seconds per frame (median);
 * for every convolution, the requantization by the ``ops.quant.requantize`` definition versus the
   emulator's :class:`~mnss_kit.emulate.fast.Requantizer` (checked equal on the same accumulators).
 
@@ -33,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from mnss_kit.fileio import atomic_write_json
+from mnss_kit.zoo import DEFAULT_MODEL
 
 HR_SIZE = (1280, 720)
 
@@ -40,23 +40,15 @@ HR_SIZE = (1280, 720)
 def make_bundle(root: Path, frames: int) -> tuple[Path, Path]:
     if (root / "bundle" / "manifest.json").is_file() and (root / "data" / "pan").is_dir():  # kept by --workdir
         return root / "bundle", root / "data" / "pan"
-    import torch
-
     from mnss_kit.cli import main
     from mnss_kit.dataset.synthetic import write_synthetic_sequence
-    from mnss_kit.model import checkpoint
-    from mnss_kit.model.config import load_model_config
-    from mnss_kit.model.families import build_model, randomise_convs
 
     calibration = root / "calibration"
     write_synthetic_sequence(calibration / "small", lr_size=(64, 36), scale=2, frames=8, name="small")
     data = root / "data"
     write_synthetic_sequence(data / "pan", lr_size=(HR_SIZE[0] // 2, HR_SIZE[1] // 2), scale=2, frames=frames, name="pan")
-    torch.manual_seed(0)
-    model = randomise_convs(build_model(load_model_config("mnss_x2")).eval())
-    ckpt = checkpoint.save(root / "mnss_x2.pt", model, {"jitter_pattern": "mnss"})
     bundle = root / "bundle"
-    code = main(["export", str(ckpt), "--out", str(bundle), "--resolution", f"{HR_SIZE[0]}x{HR_SIZE[1]}",
+    code = main(["export", DEFAULT_MODEL, "--out", str(bundle), "--resolution", f"{HR_SIZE[0]}x{HR_SIZE[1]}",
                  "--data", str(calibration), "--golden-frames", "1", "--no-progress"])
     if code != 0:
         raise SystemExit(f"export failed with status {code}")
@@ -100,26 +92,25 @@ def op_profile(emulator, npu_input: np.ndarray) -> list[dict]:
     return rows
 
 
-def time_gpu_passes(passes, seconds: dict) -> None:
-    """Wrap every pass method of ``passes`` to add its process CPU seconds to ``seconds[name]``."""
-    for name in ("warp", "inpaint_weights", "inpaint_blend", "avgpool", "conv3x3", "insert_pack", "unpack_history", "sharpen"):
-        method = getattr(passes, name)
+def time_gpu_passes(runner, seconds: dict) -> None:
+    """Wrap the schedule runner's GPU step to add each pass's process CPU seconds to ``seconds[pass]``."""
+    run_step = runner._gpu
 
-        def timed(*args, _method=method, _name=name, **kwargs):
-            start = time.process_time()
-            try:
-                return _method(*args, **kwargs)
-            finally:
-                seconds[_name] = seconds.get(_name, 0.0) + time.process_time() - start
+    def timed(step, *args, **kwargs):
+        start = time.process_time()
+        try:
+            return run_step(step, *args, **kwargs)
+        finally:
+            seconds[step["pass"]] = seconds.get(step["pass"], 0.0) + time.process_time() - start
 
-        setattr(passes, name, timed)
+    runner._gpu = timed
 
 
 def run_frames(emulator, frames: list[dict]) -> tuple[list[dict], list[float], list[dict], object]:
     """Every frame in order; per timed frame (all but the first): stage seconds, process CPU, GPU pass CPU."""
     timings, cpu, gpu, last = [], [], [], None
     pass_seconds: dict[str, float] = {}
-    time_gpu_passes(emulator.passes, pass_seconds)
+    time_gpu_passes(emulator.runner, pass_seconds)
     for t, frame in enumerate(frames):
         pass_seconds.clear()
         cpu_start = time.process_time()
@@ -160,7 +151,7 @@ def main() -> int:
     conv = [r for r in ops if "requantize_fast_seconds" in r]
     result = {
         "benchmark": "emulator seconds per 1280x720 output frame (numpy NPU and GPU backends)",
-        "model": "mnss_x2 (default config), untrained weights",
+        "model": f"{DEFAULT_MODEL} (the default model, shipped weights)",
         "hr_size": list(HR_SIZE),
         "npu_profile": args.profile,
         "frames_timed": len(timings),
