@@ -14,7 +14,8 @@ Each frame the scene is rendered once per pixel with the projection jittered by
 2. history: the previous output fetched at ``p + velocity`` with a Catmull-Rom filter (16 taps,
    clamp-to-edge; ``"bilinear"`` for the cheaper fetch); a position off the screen has no history;
 3. clip: the history is clipped towards the centre of the min/max box of the 3x3 current
-   samples in YCoCg (Karis's AABB clip), which rejects stale or disoccluded history;
+   samples in YCoCg (Karis's AABB clip), which rejects stale or disoccluded history, then to
+   RGB >= 0 (a YCoCg box reaches below zero in RGB; so does a Catmull-Rom overshoot);
 4. blend: ``out = history + ALPHA * (current - history)``; with ``luma_weighted`` each term is
    weighted by ``1 / (1 + luma)`` first (Karis's anti-flicker weighting, biased towards dark).
    On a reset (camera cut, sequence start) or without history the output is the current sample.
@@ -57,7 +58,7 @@ def native_taa_step(current: np.ndarray, motion: np.ndarray, depth: np.ndarray, 
     """One frame of the TAA; returns the output, which is also the next frame's ``history``.
 
     ``current`` (H, W, 3) float32: this frame's colour, one sample per pixel at the jittered
-    position (linear, any range >= 0).  ``motion`` (H, W, 2) float32: pixels of this resolution
+    position (linear, >= 0; the output is then >= 0 too).  ``motion`` (H, W, 2) float32: pixels of this resolution
     from the current to the previous position, +y down (the canonical convention), without jitter.
     ``depth`` (H, W) or (H, W, 1): smaller is nearer (hardware or linear depth, not reversed).
     ``history`` (H, W, 3) float32: the previous output, or None.  ``reset``: drop the history.
@@ -75,7 +76,7 @@ def native_taa_step(current: np.ndarray, motion: np.ndarray, depth: np.ndarray, 
     fetch = catmull_rom_sample if history_filter == "catmull_rom" else bilinear_sample
     previous = fetch(np.asarray(history, np.float32), px, py)
     lo, hi = neighbourhood_box(rgb_to_ycocg(current))
-    previous = ycocg_to_rgb(clip_towards_centre(rgb_to_ycocg(previous), lo, hi))
+    previous = np.maximum(ycocg_to_rgb(clip_towards_centre(rgb_to_ycocg(previous), lo, hi)), np.float32(0))
     a = np.float32(alpha)
     if luma_weighted:
         wc = a / (np.float32(1) + luma(current))

@@ -126,3 +126,14 @@ def test_moving_camera_is_softer_than_the_box_reference(history_filter):
     ratios = [mean_gradient(outputs[t]) / mean_gradient(box_reference(speed * t)) for t in range(12, 24)]
     static = [mean_gradient(o) / mean_gradient(box_reference()) for o in run(24)[12:]]
     assert np.median(ratios) < 0.98 and np.median(ratios) < np.median(static) - 0.03  # measured 0.96 / 0.95 vs 1.01
+
+
+def test_output_stays_non_negative_where_the_ycocg_box_reaches_below_zero():
+    """Saturated colours: the 3x3 YCoCg box holds points with negative RGB, Catmull-Rom overshoots."""
+    rng = np.random.default_rng(3)
+    history = None
+    motion = np.full((H, W, 2), -0.43, np.float32)
+    for t in range(6):
+        current = (rng.random((H, W, 3)) < 0.3).astype(np.float32) * np.float32(4.0)  # sparse saturated dots
+        history = taa.native_taa_step(current, motion, np.zeros((H, W), np.float32), history, reset=t == 0)
+        assert history.min() >= 0.0
