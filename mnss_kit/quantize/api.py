@@ -69,9 +69,11 @@ def quantize(request: QuantizeRequest):
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", r.frames, data)
         samples = calibration_samples(model, sequences, r.frames, progress=r.progress)
         options = QuantizeOptions(method=r.method, int16=r.a16, qat_steps=r.qat)
+        if r.a16:  # before the quantization's runtime passes
+            check_int16_count(r.a16, npu_module(model), samples)
         art = quantize_module(npu_module(model), samples, options, name=Path(r.model).stem)
-        if r.a16:
-            check_int16_count(r.a16, art, log)
+        if len(art.report.get("int16") or []) < r.a16:
+            warn_int16_shortfall(r.a16, art.report, log)
         art.report["data"] = str(r.data) if r.data else f"rendered mnss_kit/configs/data/{DEFAULT_DATA_CONFIG}.yaml"
         art.report["checkpoint"] = identity(r.model, record)  # export checks it is given this very file
         if r.pipeline_frames:
@@ -83,20 +85,27 @@ def quantize(request: QuantizeRequest):
     return art, files
 
 
-def check_int16_count(wanted: int, art, log) -> None:
-    """``--a16 N`` above the graph's activation tensors is refused (nothing is written); fewer
-    tensors made 16-bit than asked (LiteRT cannot hold some in int16) is said in a warning."""
-    from ..errors import UserError
+def check_int16_count(wanted: int, module, samples) -> None:
+    """``--a16 N`` above the activation tensors of the NPU stage's graph is refused (nothing is
+    written) instead of being clamped."""
+    import numpy as np
+    import torch
 
-    graph = art.graph
-    tensors = sum(1 for n in graph.activations()  # the int8 <-> int16 conversions added for --a16 aside
-                  if graph.producer(n) is None or graph.producer(n).kind != "QUANTIZE")
+    from ..errors import UserError
+    from .trace import trace
+
+    graph = trace(module.eval(), [torch.from_numpy(np.asarray(x, np.float32)) for x in samples[0]])
+    tensors = len(graph.activations())
     if wanted > tensors:
         raise UserError(f"--a16 {wanted}: the NPU graph has {tensors} activation tensors; ask for at most {tensors}")
-    chosen, skipped = art.report.get("int16") or [], art.report.get("int16_skipped") or {}
-    if len(chosen) < wanted:
-        log.warning("--a16 %d: %d tensor(s) given 16-bit activations; %d of the most sensitive cannot be int16 in LiteRT "
-                    "(first: '%s', %s)", wanted, len(chosen), len(skipped), *next(iter(skipped.items()), ("-", "-")))
+
+
+def warn_int16_shortfall(wanted: int, report: dict, log) -> None:
+    """Fewer tensors made 16-bit than asked: LiteRT cannot hold some of them in int16; say so."""
+    chosen, skipped = report.get("int16") or [], report.get("int16_skipped") or {}
+    first = next(iter(skipped.items()), ("-", "-"))
+    log.warning("--a16 %d: %d tensor(s) given 16-bit activations; %d of the most sensitive cannot be int16 in LiteRT "
+                "(first: '%s', %s)", wanted, len(chosen), len(skipped), *first)
 
 
 def render_calibration_data(root: Path, progress: bool, with_reference: bool = True, overrides: list[str] | None = None,
