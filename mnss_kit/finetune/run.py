@@ -42,6 +42,7 @@ DEFAULT_MINUTES = 15.0
 DEFAULT_HOLD_BACK = 0.4
 DEFAULT_WARMUP = 4
 JUDGED_METRICS = ("psnr", "ssim", "if_ssim")
+JUDGED_BASELINES = ("taau", "fsr2", "bicubic")
 
 
 @dataclass
@@ -140,7 +141,8 @@ def _judge(model: str, tuned: Path, out: Path, splits: list[SequenceSplit], prog
 
     shipped, record = checkpoint.load(model)
     fine, _ = checkpoint.load(tuned)
-    methods = {"finetuned": model_method(fine), "before": model_method(shipped), **baseline_methods(record["scale"])}
+    methods = {"finetuned": model_method(fine), "before": model_method(shipped),
+               **baseline_methods(record["scale"], JUDGED_BASELINES)}
     result = evaluate(methods, out / "split" / "judged", progress=progress, crops_dir=out / "crops")
     warmups = {s.name: s.warmup for s in splits}
     held = [r for r in result["per_frame"] if r["frame"] >= warmups[r["sequence"]]]

@@ -34,7 +34,7 @@ def test_finetune_judges_the_held_back_frames_and_resumes(capture, tmp_path):
     assert main(args) == 0
     summary = json.loads((out / "heldback.json").read_text())
     assert summary["settings"]["sequences"]["pan"] == {"frames": 24, "tuned": 14, "held_back": 10}
-    assert summary["frames"] == 10 and set(summary["methods"]) >= {"finetuned", "before", "taau", "bicubic"}
+    assert summary["frames"] == 10 and set(summary["methods"]) >= {"finetuned", "before", "taau", "fsr2", "bicubic"}
     assert all(r["frame"] >= 4 for r in summary["per_frame"])  # warm-up frames are run, not scored
     judged = fmt.read_meta(out / "split" / "judged" / "pan")
     assert judged.frame_count == 14 and judged.frames[0].reset
