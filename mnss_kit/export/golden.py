@@ -68,20 +68,13 @@ def frame_from_torch(frame: dict, inputs: list[str]) -> dict:
 
 def dataset_frames(data: Path, lr_size, scale: int, inputs: list[str], n: int) -> tuple[list[dict], str] | None:
     """The first ``n`` numpy frames (``inputs``) of the first sequence in dataset ``data`` at
-    ``lr_size`` and ``scale`` with that many frames, and where they came from; None if no sequence
-    has that size, ``UserError`` if those that have it are shorter than ``n`` frames."""
+    ``lr_size`` and ``scale`` with that many frames, and where they came from; None if none fits."""
     from ..dataset.format import extra_buffers_of
     from ..dataset.loader import eval_sequences
 
-    fitting = [seq for seq in eval_sequences(data, **extra_buffers_of(inputs), progress=False)
-               if tuple(seq.meta.lr_size) == tuple(lr_size) and seq.meta.scale == scale]
-    for seq in fitting:
-        if len(seq) >= n:
+    for seq in eval_sequences(data, **extra_buffers_of(inputs), progress=False):
+        if tuple(seq.meta.lr_size) == tuple(lr_size) and seq.meta.scale == scale and len(seq) >= n:
             return first_frames(seq, n, inputs), f"dataset {data}, sequence {seq.name}, frames 0..{n - 1}"
-    if fitting:
-        longest = max(fitting, key=len)
-        raise UserError(f"--golden-frames {n}: the longest sequence of {data} at {lr_size[0]}x{lr_size[1]} "
-                        f"('{longest.name}') has {len(longest)} frames; ask for at most {len(longest)}")
     return None
 
 

@@ -267,8 +267,8 @@ def check_data(data: Path, scale: int, model_id: str, lr_size: tuple[int, int], 
 
 def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: str, inputs: list[str]) -> tuple[list[dict], str]:
     """``golden_frames`` consecutive numpy frames at ``lr_size``: from ``request.data`` when a sequence
-    there has that size (``UserError`` if none is long enough), else rendered (built-in scene, EGL),
-    with a warning when data was given."""
+    there has that size (:func:`check_data` has refused data whose sequences at that size are too
+    short), else rendered (built-in scene, EGL), with a warning when data was given."""
     from ..dataset.format import extra_buffers_of
     from ..dataset.loader import eval_sequences
     from .golden import dataset_frames, first_frames
