@@ -135,7 +135,7 @@ def _taau_filter(p, c: Call):
 
 
 def _fsr2_reconstruct(p, c: Call):
-    dilated, previous_depth = p.fsr2_reconstruct(c.read["depth"], c.read["motion"])
+    dilated, previous_depth = p.fsr2_reconstruct(c.read["depth"], c.read["motion"], P.fsr2_params_from_uniforms(c.uniforms))
     return {"dilated": dilated, "previous_depth": previous_depth}
 
 

@@ -398,13 +398,13 @@ class MesaPasses:
 
     # -- fsr2 ----------------------------------------------------------------------------------
     @_in_own_context
-    def fsr2_reconstruct(self, depth, motion):
+    def fsr2_reconstruct(self, depth, motion, params):
         h, w = depth.shape[:2]
         dilated = self.empty((w, h), "rgba32f")
         previous_depth = self.ctx.buffer(bytes(4 * h * w))  # cleared, as fsr2_accumulate_pass leaves it
         res = {"depth": self.texture(depth, "r32f"), "motion": self.texture(motion, "rg32f"), "dilated": dilated,
                "previous_depth": previous_depth}
-        self.run("fsr2_reconstruct_pass", (w, h), res, {})
+        self.run("fsr2_reconstruct_pass", (w, h), res, P.fsr2_uniforms(params))
         return self.read(dilated, "rgba32f", 4), np.frombuffer(previous_depth.read(), np.uint32).copy()
 
     @_in_own_context

@@ -175,7 +175,7 @@ PASSES = {
         Pass(
             "fsr2_reconstruct_pass", (8, 8, 1), "lr",
             (_s("depth", 0, "r32f"), _s("motion", 1, "rg32f"), _i("dilated", 0, "rgba32f"), _b("previous_depth", 0, "uint[]")),
-            (),
+            ("u_dilation_edge",),
         ),
         Pass(
             "fsr2_depth_clip_pass", (8, 8, 1), "lr",
@@ -241,7 +241,7 @@ def quantize_uniforms(scale: float, zero_point: int, profile) -> dict:
 def fsr2_uniforms(params: FSR2Params) -> dict:
     """The float uniforms of the fsr2 passes for ``params`` (float32 values, as the shaders hold them)."""
     f = lambda v: float(np.float32(v))  # noqa: E731
-    return {"u_depth_tolerance": f(params.depth_tolerance), "u_slope_factor": f(params.slope_factor),
+    return {"u_dilation_edge": f(params.dilation_edge), "u_depth_tolerance": f(params.depth_tolerance), "u_slope_factor": f(params.slope_factor),
             "u_lock_contrast": f(params.lock_contrast), "u_max_weight": f(params.max_weight), "u_gamma": f(params.gamma),
             "u_resample_penalty": f(params.resample_penalty), "u_kernel_width": f(params.kernel_width),
             "u_prior_weight": f(params.prior_weight),
@@ -251,7 +251,7 @@ def fsr2_uniforms(params: FSR2Params) -> dict:
 
 def fsr2_params_from_uniforms(uniforms: dict) -> FSR2Params:
     """The ``FSR2Params`` behind fsr2 uniform values (those a pass does not take keep their defaults)."""
-    names = {"u_depth_tolerance": "depth_tolerance", "u_slope_factor": "slope_factor", "u_lock_contrast": "lock_contrast",
+    names = {"u_dilation_edge": "dilation_edge", "u_depth_tolerance": "depth_tolerance", "u_slope_factor": "slope_factor", "u_lock_contrast": "lock_contrast",
              "u_max_weight": "max_weight", "u_gamma": "gamma", "u_resample_penalty": "resample_penalty",
              "u_kernel_width": "kernel_width", "u_prior_weight": "prior_weight", "u_lock_luma_tolerance": "lock_luma_tolerance",
              "u_sharpness": "sharpness"}

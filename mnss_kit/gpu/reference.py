@@ -188,12 +188,12 @@ class ReferencePasses:
         return encode_unorm8(taau.display(to_half(history)[..., :3], steer))
 
     # -- fsr2 ----------------------------------------------------------------------------------
-    def fsr2_reconstruct(self, depth, motion):
+    def fsr2_reconstruct(self, depth, motion, params: fsr2.FSR2Params):
         """fsr2_reconstruct_pass.  depth (h,w,1), motion (h,w,2) -> (dilated (h,w,4): the nearest
-        neighbour's depth and motion, 0; previous_depth (h*w,) uint32: the bits of
+        neighbour's depth and motion across an edge (``ops.fsr2.dilate``), 0; previous_depth (h*w,) uint32: the bits of
         ``ops.fsr2.reconstruct_previous_depth_encoded``, 0 where no surface landed)."""
         depth, motion = np.asarray(depth, np.float32), np.asarray(motion, np.float32)
-        dilated_depth, dilated_motion = fsr2.dilate(depth, motion)
+        dilated_depth, dilated_motion = fsr2.dilate(depth, motion, params.dilation_edge)
         encoded = fsr2.reconstruct_previous_depth_encoded(dilated_depth, dilated_motion)
         dilated = np.concatenate([dilated_depth, dilated_motion, np.zeros_like(dilated_depth)], axis=-1)
         return dilated, encoded.reshape(-1).view(np.uint32).copy()

@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .taau import nearest_up, rgb_to_ycocg, ycocg_to_rgb
+from .warp import upsample_motion
 
 NO_DEPTH = np.float32(1.0)  # reconstructed previous depth where no surface landed: the far plane, never a clip
 RCAS_LOBE_LIMIT = np.float32(0.1875)  # the strongest lobe: -0.1875 keeps the centre tap at 1.75 of the sum
@@ -62,6 +63,7 @@ class FSR2Params:
     resample_penalty: float = 1.0  # history weight lost per unit of the fetch's blur (sum over axes of t (1 - t))
     kernel_width: float = 0.6  # HR pixels from a sample to its kernel's first zero
     prior_weight: float = 0.005  # weight of the Lanczos upsampled frame: what a pixel shows before samples land near it
+    dilation_edge: float = 0.05  # a neighbour this much nearer (relative) is across an edge: dilate to it
     depth_tolerance: float = 0.02  # relative depth separation that starts a depth clip
     slope_factor: float = 2.0  # plus this many times the surface's depth step per LR pixel
     lock_contrast: float = 0.04  # luma step on both sides that makes a thin feature
@@ -102,9 +104,10 @@ def _neighbours(x: np.ndarray):
 
 
 # -- 1. reconstruct and dilate ------------------------------------------------------------------
-def dilate(depth: np.ndarray, motion: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def dilate(depth: np.ndarray, motion: np.ndarray, edge: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Nearest-depth 3x3 dilation: ``depth`` (h, w, 1) and ``motion`` (h, w, 2) of the nearest
-    (smallest-depth) neighbour, the first in scan order on a tie; float32."""
+    (smallest-depth) neighbour, the first in scan order on a tie, where it is nearer than the
+    pixel's own depth by more than ``edge`` times that depth (an edge, not a slope); float32."""
     depths = _neighbours(np.asarray(depth, np.float32))
     motions = _neighbours(np.asarray(motion, np.float32))
     best_depth, best_motion = depths[0].copy(), motions[0].copy()
@@ -112,7 +115,9 @@ def dilate(depth: np.ndarray, motion: np.ndarray) -> tuple[np.ndarray, np.ndarra
         nearer = d < best_depth
         best_depth = np.where(nearer, d, best_depth)
         best_motion = np.where(nearer, m, best_motion)
-    return best_depth, best_motion
+    centre = depths[4]
+    slope = centre - best_depth <= np.float32(edge) * centre
+    return np.where(slope, centre, best_depth), np.where(slope, motions[4], best_motion)
 
 
 def encode_depth(depth) -> np.ndarray:
@@ -262,34 +267,29 @@ def lanczos_upsample(current: np.ndarray, jitter, scale: int) -> np.ndarray:
 
 
 def reconstruct_samples(current: np.ndarray, jitter, scale: int, kernel_width: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """This frame's samples at each HR pixel: the Lanczos-2-weighted mean ``(H, W, C)`` of the 3x3 LR
-    samples around the nearest one, the kernel on their distance to the pixel centre in HR pixels
-    (negative lobes kept, deringed to the 3x3 samples' min and max), and its total weight
-    ``(H, W, 1)``, at least 0: near 1 where a sample landed on the pixel centre, 0 where none came
-    within one HR pixel (the mean is then the nearest sample's value)."""
+    """This frame's samples at each HR pixel: the mean ``(H, W, C)`` of the 3x3 LR samples around the
+    nearest one weighted by the main lobe of Lanczos-2 on their distance to the pixel centre in HR
+    pixels over ``kernel_width`` (the negative lobes would let samples beyond the pixel subtract),
+    and the total weight ``(H, W, 1)``: 1 where a sample landed on the pixel centre, 0 where none
+    came within ``kernel_width`` (the mean is then the nearest sample's value)."""
     h, w = current.shape[:2]
     jx, jy = (float(v) for v in np.asarray(jitter, np.float32).reshape(2))
     axes = []
     for n_lr, shift in ((h, jy), (w, jx)):
         _, nearest, distance = _sample_axis(n_lr, scale, shift)
         index = np.clip(nearest[:, None] + np.arange(-1, 2), 0, n_lr - 1)
-        offsets = distance[:, None] - np.float32(scale) * np.arange(-1, 2, dtype=np.float32)
-        axes.append((index, lanczos2(offsets / np.float32(kernel_width))))
+        offsets = (distance[:, None] - np.float32(scale) * np.arange(-1, 2, dtype=np.float32)) / np.float32(kernel_width)
+        axes.append((index, np.where(np.abs(offsets) < 1.0, lanczos2(offsets), np.float32(0.0))))
     (rows, wy), (cols, wx) = axes
     acc = np.zeros((h * scale, w * scale, current.shape[2]), np.float32)
     total = np.zeros((h * scale, w * scale, 1), np.float32)
-    lo = np.full_like(acc, np.inf)
-    hi = np.full_like(acc, -np.inf)
     for a in range(3):
         for b in range(3):
-            tap = current[rows[:, a]][:, cols[:, b]]
             weight = (wy[:, a, None] * wx[None, :, b])[..., None]
-            acc += weight * tap
+            acc += weight * current[rows[:, a]][:, cols[:, b]]
             total += weight
-            lo, hi = np.minimum(lo, tap), np.maximum(hi, tap)
     nearest = current[rows[:, 1]][:, cols[:, 1]]
-    mean = np.where(total > np.float32(1e-3), acc / np.maximum(total, np.float32(1e-3)), nearest)
-    return np.clip(mean, lo, hi), np.maximum(total, 0.0)
+    return np.where(total > 0, acc / np.where(total > 0, total, np.float32(1.0)), nearest), total
 
 
 def nearest_sample_index(h: int, w: int, jitter, scale: int) -> tuple[np.ndarray, np.ndarray]:
@@ -320,12 +320,13 @@ def variance_box(current: np.ndarray, rows: np.ndarray, cols: np.ndarray, gamma:
 
 
 def reproject(history: np.ndarray, locks: np.ndarray, dilated_motion: np.ndarray, scale: int, reset: bool):
-    """The state warped to this frame by the dilated motion of each HR pixel's LR cell: the history
+    """The state warped to this frame by the dilated motion, bilinearly upsampled (``ops.warp``; the
+    LR cell's own motion would be off by up to half an LR pixel's motion gradient): the history
     colour (Catmull-Rom, clamp-to-edge, YCoCg) ``(H, W, 3)``, its weight ``(H, W, 1)`` and the
     locks ``(H, W, 2)`` (nearest texel); weight and locks zero after a reset and where the surface
     was off-screen."""
     hh, hw = history.shape[:2]
-    motion = nearest_up(np.asarray(dilated_motion, np.float32), scale) * np.float32(scale)
+    motion = upsample_motion(np.asarray(dilated_motion, np.float32), scale)
     y, x = np.meshgrid(np.arange(hh, dtype=np.float32) + 0.5, np.arange(hw, dtype=np.float32) + 0.5, indexing="ij")
     px, py = x + motion[..., 0], y + motion[..., 1]
     keep = ((px >= 0) & (px < hw) & (py >= 0) & (py < hh) & (not reset))[..., None]
@@ -415,7 +416,7 @@ def rcas(image: np.ndarray, sharpness: float) -> np.ndarray:
 def analyse(colour: np.ndarray, depth: np.ndarray, motion: np.ndarray, params: FSR2Params):
     """Steps 1 and 2 at LR: the dilated motion (h, w, 2) and the analysis (h, w, 2): disocclusion,
     thin-feature mask."""
-    dilated_depth, dilated_motion = dilate(depth, motion)
+    dilated_depth, dilated_motion = dilate(depth, motion, params.dilation_edge)
     previous_depth = reconstruct_previous_depth(dilated_depth, dilated_motion)
     clip = disocclusion(dilated_depth, dilated_motion, previous_depth, params)
     return dilated_motion, np.concatenate([clip, thin_features(colour, params.lock_contrast)], axis=-1)

@@ -36,7 +36,7 @@ def test_reconstruction_is_exact(mesa, ref, motion_scale):
     rng = np.random.default_rng(3)
     f = random_frame(rng, H, W, 2, motion_scale)
     for depth in (f["depth"], _depth_with_a_moving_box(rng)):
-        (dilated, words), (want_dilated, want_words) = mesa.fsr2_reconstruct(depth, f["motion"]), ref.fsr2_reconstruct(depth, f["motion"])
+        (dilated, words), (want_dilated, want_words) = mesa.fsr2_reconstruct(depth, f["motion"], PARAMS), ref.fsr2_reconstruct(depth, f["motion"], PARAMS)
         np.testing.assert_array_equal(dilated, want_dilated)
         np.testing.assert_array_equal(words, want_words)
     assert (want_words == 0).any() if motion_scale == 60.0 else (want_words > 0).any()  # far motion lands off-screen
@@ -46,7 +46,7 @@ def test_reconstruction_is_exact(mesa, ref, motion_scale):
 def test_depth_clip_matches_reference(mesa, ref, motion_scale):
     rng = np.random.default_rng(5)
     f = random_frame(rng, H, W, 2, motion_scale)
-    dilated, words = ref.fsr2_reconstruct(_depth_with_a_moving_box(rng), f["motion"])
+    dilated, words = ref.fsr2_reconstruct(_depth_with_a_moving_box(rng), f["motion"], PARAMS)
     got, want = mesa.fsr2_depth_clip(dilated, f["color"], words, PARAMS), ref.fsr2_depth_clip(dilated, f["color"], words, PARAMS)
     assert_float_close(got, want, TOLERANCE)
     assert want[..., 1].any()  # random colour has thin features
@@ -57,7 +57,7 @@ def test_accumulation_matches_reference(mesa, ref, pattern, scale):
     rng = np.random.default_rng(7 * scale)
     f = random_frame(rng, H, W, scale)
     history, locks = _state(rng, scale)
-    dilated, words = ref.fsr2_reconstruct(_depth_with_a_moving_box(rng), f["motion"])
+    dilated, words = ref.fsr2_reconstruct(_depth_with_a_moving_box(rng), f["motion"], PARAMS)
     analysis = ref.fsr2_depth_clip(dilated, f["color"], words, PARAMS)
     reactive = rng.random((H, W, 1), dtype=np.float32)
     for k, jitter in enumerate(pattern_jitters(pattern, scale)[:4]):
@@ -91,7 +91,7 @@ def test_chained_frames_match_reference(mesa, ref):
         outputs = {}
         for name, passes in (("mesa", mesa), ("ref", ref)):
             history, locks = states.get(name, (np.zeros((H * scale, W * scale, 4), np.float32),) * 2)
-            dilated, words = passes.fsr2_reconstruct(depth, motion)
+            dilated, words = passes.fsr2_reconstruct(depth, motion, PARAMS)
             analysis = passes.fsr2_depth_clip(dilated, colour, words, PARAMS)
             history, locks, _ = passes.fsr2_accumulate(colour, dilated, analysis, history, locks, None, words, jitter, scale,
                                                        t == 0, PARAMS)

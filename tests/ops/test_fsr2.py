@@ -27,6 +27,17 @@ def test_dilation_gives_each_pixel_the_nearest_neighbours_motion():
     assert dilated_depth[0, 0, 0] == np.float32(0.5) and np.all(dilated_motion[0, 0] == 0)
 
 
+def test_dilation_crosses_edges_not_slopes():
+    depth, motion = _still()
+    depth[:] += 0.01 * np.arange(H)[:, None, None]  # a floor: each row 2% nearer than the next
+    motion[..., 1] = np.arange(H)[:, None] * 0.5  # whose motion changes by row
+    depth[2, 3], motion[2, 3] = 0.1, (-1.5, 0.0)  # and a near object
+    dilated_depth, dilated_motion = fsr2.dilate(depth, motion, edge=0.05)
+    assert np.all(dilated_motion[1:4, 2:5, 0] == -1.5)  # across the object's edge
+    np.testing.assert_array_equal(dilated_motion[:, 6:], motion[:, 6:])  # the floor keeps its own motion
+    np.testing.assert_array_equal(dilated_depth[:, 6:], depth[:, 6:])
+
+
 def test_previous_depth_is_the_nearest_surface_scattered_along_the_motion():
     depth, motion = _still()
     depth[2, 3] = 0.1

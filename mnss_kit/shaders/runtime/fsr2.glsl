@@ -16,8 +16,9 @@ float fsr2_luma(vec3 rgb) {
 
 // -- 1. reconstruct and dilate ----------------------------------------------------------------
 // Depth (x) and motion (yz) of the nearest surface in the 3x3 neighbourhood of LR texel `lr`,
-// the first in scan order on a tie (ops.fsr2.dilate).
-vec3 dilated_at(highp sampler2D depth, highp sampler2D motion, ivec2 lr) {
+// the first in scan order on a tie, where it is nearer than the texel's own depth by more than
+// `edge` times that depth; else the texel's own (ops.fsr2.dilate).
+vec3 dilated_at(highp sampler2D depth, highp sampler2D motion, ivec2 lr, float edge) {
     ivec2 last = textureSize(depth, 0) - 1;
     float best = 0.0;
     ivec2 nearest = lr;
@@ -30,6 +31,10 @@ vec3 dilated_at(highp sampler2D depth, highp sampler2D motion, ivec2 lr) {
                 nearest = p;
             }
         }
+    }
+    float centre = texelFetch(depth, lr, 0).x;
+    if (centre - best <= edge * centre) {
+        return vec3(centre, texelFetch(motion, lr, 0).xy);
     }
     return vec3(best, texelFetch(motion, nearest, 0).xy);
 }
@@ -141,32 +146,30 @@ vec3 lanczos_upsample_at(highp sampler2D color, SamplePlace s) {
     return clamp(acc, lo, hi);
 }
 
-// This frame's samples at HR texel `hr`: the Lanczos-2-weighted mean of the 3x3 samples around the
-// nearest one on their HR distance over `kernel_width`, YCoCg, deringed (rgb), and its total
-// weight, at least 0 (a) (ops.fsr2.reconstruct_samples).
+// This frame's samples at HR texel `hr`: the mean of the 3x3 samples around the nearest one
+// weighted by Lanczos-2's main lobe on their HR distance over `kernel_width`, YCoCg (rgb), and the
+// total weight (a) (ops.fsr2.reconstruct_samples).
+float main_lobe(float x) {
+    return abs(x) < 1.0 ? lanczos2(x) : 0.0;
+}
+
 vec4 reconstruct_samples_at(highp sampler2D color, SamplePlace s, int scale, float kernel_width) {
     ivec2 last = textureSize(color, 0) - 1;
     float fs = float(scale);
     vec3 acc = vec3(0.0);
     float total = 0.0;
-    vec3 lo = vec3(1e30);
-    vec3 hi = vec3(-1e30);
     for (int a = 0; a < 3; a++) {
-        float wy = lanczos2((s.distance.y - fs * float(a - 1)) / kernel_width);
+        float wy = main_lobe((s.distance.y - fs * float(a - 1)) / kernel_width);
         int row = clamp(s.nearest.y + a - 1, 0, last.y);
         for (int c = 0; c < 3; c++) {
-            float wx = lanczos2((s.distance.x - fs * float(c - 1)) / kernel_width);
+            float wx = main_lobe((s.distance.x - fs * float(c - 1)) / kernel_width);
             int col = clamp(s.nearest.x + c - 1, 0, last.x);
-            vec3 tap = rgb_to_ycocg(texelFetch(color, ivec2(col, row), 0).rgb);
-            acc += (wy * wx) * tap;
+            acc += (wy * wx) * rgb_to_ycocg(texelFetch(color, ivec2(col, row), 0).rgb);
             total += wy * wx;
-            lo = min(lo, tap);
-            hi = max(hi, tap);
         }
     }
     vec3 nearest = rgb_to_ycocg(texelFetch(color, s.nearest, 0).rgb);
-    vec3 mean = total > 1e-3 ? acc / max(total, 1e-3) : nearest;
-    return vec4(clamp(mean, lo, hi), max(total, 0.0));
+    return vec4(total > 0.0 ? acc / total : nearest, total);
 }
 
 // The YCoCg clamp box: mean +- gamma std of the 3x3 LR samples around `lr` (ops.fsr2.variance_box).
@@ -194,7 +197,7 @@ Box variance_box_at(highp sampler2D color, ivec2 lr, float gamma) {
     return box;
 }
 
-// The state at HR texel `hr` warped by its LR cell's dilated motion (ops.fsr2.reproject).
+// The state at HR texel `hr` warped by the HR `motion` (the dilated motion upsampled; ops.fsr2.reproject).
 struct Reprojected {
     vec3 colour;    // YCoCg, Catmull-Rom
     float weight;   // 0 on a reset or from off-screen

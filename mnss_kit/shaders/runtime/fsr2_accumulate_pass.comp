@@ -1,7 +1,7 @@
 #version 310 es
 // fsr2_accumulate_pass: one invocation per HR texel (FSR2 steps 3 and 4, locks and accumulation).
 //   in   color           LR rgba16f     jittered LR colour, display values
-//        dilated         LR rgba32f     fsr2_reconstruct_pass (motion in yz)
+//        dilated         LR rgba32f     fsr2_reconstruct_pass (motion in yz, upsampled bilinearly)
 //        analysis        LR rgba32f     fsr2_depth_clip_pass
 //        history         HR rgba16f     the previous output (rgb) and its accumulated weight (a)
 //        locks           HR rgba16f     the previous lock lifetime (x) and locked luma (y)
@@ -56,7 +56,7 @@ void main() {
     float sample_weight = samples.a;
     vec3 upsampled = lanczos_upsample_at(color, place);
     Box box = variance_box_at(color, place.nearest, u_gamma);
-    Reprojected r = reproject_at(history, locks, texelFetch(dilated, cell, 0).yz * float(u_scale), hr, u_reset != 0);
+    Reprojected r = reproject_at(history, locks, bilinear_sample(dilated, (vec2(hr) + 0.5) / float(u_scale)).yz * float(u_scale), hr, u_reset != 0);
     float weight = r.weight * max(1.0 - u_resample_penalty * r.spread, 0.0);
     float disoccluded = texelFetch(analysis, cell, 0).x;
     float reactivity = u_use_reactive != 0 ? texelFetch(reactive, cell, 0).x : 0.0;

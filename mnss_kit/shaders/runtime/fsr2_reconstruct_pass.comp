@@ -2,7 +2,8 @@
 // fsr2_reconstruct_pass: one invocation per LR texel (FSR2 step 1, reconstruct and dilate).
 //   in   depth           LR r32f    canonical depth (linear, [0, 1], larger is farther)
 //        motion          LR rg32f   LR motion, LR pixels, pointing to the previous frame
-//   out  dilated         LR rgba32f the nearest 3x3 neighbour's depth (x) and motion (yz)
+//   out  dilated         LR rgba32f the nearest 3x3 neighbour's depth (x) and motion (yz) across
+//                                   a depth edge (u_dilation_edge), else the texel's own
 //        previous_depth  std430 uint[]  one word per LR texel, row-major: the reconstructed
 //                                       previous depth (fsr2.glsl encode_depth), atomicMax of
 //                                       every surface landing there; must hold 0 before the
@@ -19,6 +20,8 @@ layout(binding = 1) uniform highp sampler2D motion;
 layout(rgba32f, binding = 0) uniform writeonly highp image2D dilated;
 layout(std430, binding = 0) buffer PreviousDepth { uint previous_depth[]; };
 
+uniform float u_dilation_edge;
+
 #include "fsr2.glsl"
 
 void main() {
@@ -27,7 +30,7 @@ void main() {
     if (any(greaterThanEqual(lr, size))) {
         return;
     }
-    vec3 d = dilated_at(depth, motion, lr);
+    vec3 d = dilated_at(depth, motion, lr, u_dilation_edge);
     imageStore(dilated, lr, vec4(d, 0.0));
     // scatter to the four texels of the bilinear footprint in the previous frame (ops.fsr2.scatter_targets)
     vec2 f = vec2(lr) + 0.5 + d.yz - 0.5;
