@@ -11,6 +11,7 @@ exporter.  ``quick`` reads only the EXR headers.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,6 +26,8 @@ from . import exr
 from .format import BUFFERS, COLOUR_BUFFERS, META_FILE, REQUIRED_BUFFERS, SequenceMeta, buffer_path, canonical_motion, find_sequences, read_buffer, read_meta
 
 UNIT_RANGE_BUFFERS = ("albedo", "roughness", "metallic")
+log = logging.getLogger(__name__)
+
 HEURISTIC_FRAMES = 4  # frames used by the sign heuristics
 HEURISTIC_MARGIN = 0.8  # a flipped variant must beat the recorded one by this factor to warn
 
@@ -84,6 +87,21 @@ def check_dataset(root: str | Path, quick: bool = False, progress: bool = True, 
     return report
 
 
+def require_clean(seq_or_root: str | Path) -> Report:
+    """``data check``'s checks before a command reads ``seq_or_root``: what it calls an error refuses the
+    data with its own line, what it warns about is logged as it would print it."""
+    root = Path(seq_or_root)
+    base = root.parent if (root / META_FILE).is_file() else root
+    report = check_dataset(root, progress=False)
+    if report.errors:
+        first = report.errors[0]
+        more = f" (and {len(report.errors) - 1} more error(s): mnss-kit data check lists them)" if len(report.errors) > 1 else ""
+        raise UserError(f"data check: {base / first.where}: {first.message}{more}")
+    for problem in report.warnings:
+        log.warning("data check: %s: %s", base / problem.where, problem.message)
+    return report
+
+
 def missing_family_buffers(meta: SequenceMeta, family_name: str) -> list[str]:
     """``res/name`` of each dataset buffer family ``family_name`` reads that ``meta`` does not list."""
     from ..model.families import family_named
@@ -132,6 +150,8 @@ class SequenceChecker:
         if not m.frames:
             err(where, "no frames")
             return False
+        if len(m.frames) == 1:
+            warn(where, "1 frame: training needs several consecutive frames, and a method's history is never judged")
         wrong = [(i, f.index) for i, f in enumerate(m.frames) if f.index != i]
         if wrong:
             err(where, f"frames[{wrong[0][0]}].index is {wrong[0][1]}: frames must be numbered 0, 1, 2, ... in order")

@@ -152,7 +152,11 @@ def open_sequences(
                 who = f", which {needed_by} needs," if needed_by and (res, buffer) not in base.values() else ""
                 raise UserError(f"{seq_dir}: buffer {res}/{buffer}{who} is not in this sequence (meta.json buffers.{res}; "
                                 "docs/dataset.md lists each family's buffers)")
-    if not cache:
+    if not cache:  # evaluation, calibration and golden frames read the files: data check's errors refuse them
+        from .check import require_clean
+
+        for seq_dir in seq_dirs:
+            require_clean(seq_dir)
         return [LoadedSequence(s, m, ExrFrames(s, m), reference) for s, m in zip(seq_dirs, metas)]
     cache_root = Path(cache_dir) if cache_dir else default_cache_dir(roots[0])
     caches = prepare_caches(seq_dirs, wanted, cache_root, progress=progress, metas=metas)

@@ -71,8 +71,12 @@ def check_variants(names: list[str]) -> list[str]:
 
 def write_variant_dataset(src: Path, out: Path, names: list[str], overwrite: bool = False) -> list[Path]:
     """Every sequence of ``src`` with the variants ``names`` applied, under ``out`` (written atomically)."""
+    from .check import require_clean
+
     names = check_variants(names)
     seqs = fmt.find_sequences(src)
+    for seq in seqs:  # a variant of data data check refuses would be refused in turn
+        require_clean(seq)
     with atomic_directory(out, overwrite=overwrite) as staging:
         for seq in seqs:
             write_variant(seq, staging / seq.name, names)

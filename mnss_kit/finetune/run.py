@@ -19,7 +19,7 @@ from pathlib import Path
 
 from ..config import from_dict
 from ..dataset import format as fmt
-from ..dataset.check import check_dataset
+from ..dataset.check import require_clean
 from ..errors import UserError
 from ..fileio import atomic_write_json, atomic_write_text, portable_path
 from .split import SequenceSplit, plan_split, write_split
@@ -88,11 +88,7 @@ def _checked_sequences(capture: Path, names: list[str] | None) -> list[Path]:
             raise UserError(f"{capture}: no sequence '{missing[0]}' (it has {', '.join(by_name)})")
         seqs = [by_name[n] for n in names]
     for seq in seqs:
-        report = check_dataset(seq, progress=False)
-        if report.errors:
-            raise UserError(f"{capture}: data check finds {len(report.errors)} error(s), first: {report.errors[0].line()}")
-        for problem in report.warnings:
-            log.warning("%s", problem.line())
+        require_clean(seq)
     return seqs
 
 

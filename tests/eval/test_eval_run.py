@@ -71,7 +71,7 @@ def test_missing_buffers_are_a_user_error(eval_dataset, tmp_path):
         evaluate(baseline_methods(2), seq, progress=False)
     fmt.write_meta(seq, meta)
     shutil.rmtree(seq / "lr" / "depth")
-    with pytest.raises(UserError, match="missing file"):
+    with pytest.raises(UserError, match="data check: .*lr/depth: buffer directory missing"):
         evaluate(baseline_methods(2), seq, progress=False)
 
 
