@@ -193,12 +193,17 @@ class SequenceChecker:
     def check_jitter_values(self, where: str) -> None:
         m = self.meta
         jit = np.array([f.jitter for f in m.frames], dtype=np.float64)
+        not_finite = np.nonzero(~np.isfinite(jit).all(axis=1))[0]
+        if len(not_finite):
+            t = int(not_finite[0])
+            self.report.error(where, f"jitter of {len(not_finite)} frame(s) is NaN or infinite (frame {t}: {_pair(jit[t])})")
+            return
         outside = np.nonzero(((jit < -0.5) | (jit >= 0.5)).any(axis=1))[0]
         if len(outside):
             t = int(outside[0])
             self.report.error(
                 where,
-                f"jitter of {len(outside)} frame(s) outside [-0.5, 0.5) LR pixels (frame {t}: {tuple(jit[t])}); "
+                f"jitter of {len(outside)} frame(s) outside [-0.5, 0.5) LR pixels (frame {t}: {_pair(jit[t])}); "
                 "jitter is in LR pixels from the pixel centre",
             )
             return
@@ -216,7 +221,9 @@ class SequenceChecker:
         if _matches_some_phase(-jit, expected, p):
             self.report.warn(where, f"jitter offsets are the '{m.jitter_pattern}' pattern negated: the jitter sign looks inverted (docs/dataset.md, Jitter)")
             return
-        self.report.warn(where, f"jitter offsets do not follow the '{m.jitter_pattern}' pattern at scale {m.scale} (frame 0: {tuple(jit[0])})")
+        t = _first_mismatch(jit, expected, p)
+        self.report.warn(where, f"jitter offsets do not follow the '{m.jitter_pattern}' pattern at scale {m.scale} "
+                                f"(from frame {t}: {_pair(jit[t])})")
 
     # -- files ------------------------------------------------------------------------------------
 
@@ -396,6 +403,20 @@ class SequenceChecker:
 def _matches_some_phase(recorded: np.ndarray, expected: np.ndarray, p: int) -> bool:
     n = len(recorded)
     return any(np.allclose(recorded, expected[k : k + n], atol=1e-3) for k in range(p))
+
+
+def _first_mismatch(recorded: np.ndarray, expected: np.ndarray, p: int) -> int:
+    """The first frame that departs from the pattern, at the phase the recorded offsets follow longest."""
+    n = len(recorded)
+    firsts = []
+    for k in range(p):
+        off = ~np.isclose(recorded, expected[k : k + n], atol=1e-3).all(axis=1)
+        firsts.append(int(np.argmax(off)) if off.any() else n)
+    return min(max(firsts), n - 1)
+
+
+def _pair(values) -> str:
+    return "(" + ", ".join(f"{float(v):g}" for v in values) + ")"
 
 
 def _spread(items: list[int], count: int) -> list[int]:

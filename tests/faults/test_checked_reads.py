@@ -75,3 +75,19 @@ def test_eval_warns_where_data_check_warns(synthetic_dataset, tmp_path, caplog):
     with caplog.at_level(logging.WARNING):
         assert main(["eval", "none", "--data", str(seq), "--no-progress"]) == 0
     assert all(any(w in r.getMessage() for r in caplog.records) for w in warned)
+
+
+def test_jitter_problems_name_the_frame_with_plain_numbers(synthetic_dataset, tmp_path):
+    seq = shutil.copytree(synthetic_dataset / "pan", tmp_path / "pan")
+    meta = fmt.read_meta(seq)
+    frames = list(meta.frames)
+    frames[3] = fmt.dataclasses.replace(frames[3], jitter=(0.1, 0.2))  # off the pattern from frame 3
+    fmt.write_meta(seq, fmt.replace_meta(meta, frames=frames))
+    (warning,) = [p.message for p in check_dataset(seq, progress=False).warnings if "pattern" in p.message]
+    assert "from frame 3: (0.1, 0.2)" in warning and "np." not in warning
+    frames[1] = fmt.dataclasses.replace(frames[1], jitter=(0.123, 0.25))
+    fmt.write_meta(seq, fmt.replace_meta(meta, frames=frames))
+    text = (seq / "meta.json").read_text()
+    (seq / "meta.json").write_text(text.replace("0.123", "NaN", 1))  # as an exporter's JSON writer may put it
+    (error,) = [p.message for p in check_dataset(seq, progress=False).errors if "jitter" in p.message]
+    assert "frame 1: (nan, 0.25)" in error
