@@ -28,7 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--device", metavar="NAME", help="device profile (mnss_kit/configs/devices): records the GPU/NPU placement and estimates")
     parser.add_argument("--placement", choices=placement_modes(), default="default", help="placement mode for --device (default: the model's split)")
     parser.add_argument("--data", metavar="DIR",
-                        help="dataset for calibration, and for golden frames when its LR size matches (default: render)")
+                        help="dataset at the model's scale for calibration, and for golden frames when a sequence has the "
+                             "bundle's LR size (else they are rendered, with a warning; default: render both at the model's scale)")
     parser.add_argument("--method", choices=METHODS, default="minmax", help="activation range method when quantizing (default: minmax)")
     parser.add_argument("--profile", choices=runtime_names("litert"), default=DEFAULT_RUNTIME,
                         help=f"runtime whose kernels make the golden frames and whose rounding the shaders' NPU input "
