@@ -279,8 +279,8 @@ def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: st
         if found is not None:
             return found
         log.warning("%s has no sequence at the bundle's LR size %dx%d: the golden frames are rendered from the built-in "
-                    "scene '%s' instead (give --data at that size, or --resolution %dx%d, to use your frames)",
-                    request.data, *lr_size, GOLDEN_SCENE, *_data_hr_size(request.data))
+                    "scene '%s' instead (add a sequence at that size to --data to use your frames)",
+                    request.data, *lr_size, GOLDEN_SCENE)
     with tempfile.TemporaryDirectory(prefix="mnss-export-golden-") as tmp:
         from ..render.config import RenderConfig, SequenceConfig
         from ..render.writer import render_dataset
@@ -291,10 +291,3 @@ def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: st
         seq = eval_sequences(Path(tmp), **extra_buffers_of(inputs), progress=False)[0]
         return first_frames(seq, n, inputs), f"rendered: built-in scene '{GOLDEN_SCENE}', seed 1, frames 0..{n - 1}"
 
-
-def _data_hr_size(data: Path) -> tuple[int, int]:
-    """The HR size of the first sequence of ``data`` (the size an export using its frames would run at)."""
-    from ..dataset.format import find_sequences, read_meta
-
-    meta = read_meta(find_sequences(data)[0])
-    return tuple(meta.hr_size)
