@@ -43,9 +43,7 @@ def read_exr(path: str | os.PathLike, channels: tuple[str, ...] | None = None) -
     path = Path(path)
     if not path.is_file():
         raise UserError(f"missing file: {path}")
-    if _is_lfs_pointer(path):
-        raise UserError(f"{path}: a Git LFS pointer, not the EXR image (fetch the files with `git lfs pull` "
-                        "in the repository they came from)")
+    refuse_lfs_pointer(path)
     try:
         with _quiet_stderr(), OpenEXR.File(str(path), separate_channels=True) as f:
             chans = {k: v.pixels for k, v in f.channels().items()}
@@ -69,12 +67,15 @@ LFS_POINTER_PREFIX = b"version https://git-lfs"
 LFS_POINTER_MAX_BYTES = 1024  # a pointer is three short text lines (about 130 bytes)
 
 
-def _is_lfs_pointer(path: Path) -> bool:
-    """A Git LFS pointer file checked out in place of the image (the repository was cloned without LFS)."""
+def refuse_lfs_pointer(path: Path) -> None:
+    """``UserError`` if ``path`` is a Git LFS pointer checked out in place of the image (a repository
+    cloned without LFS): a reader would call it corrupt, which sends the user looking elsewhere."""
     if path.stat().st_size > LFS_POINTER_MAX_BYTES:
-        return False
+        return
     with open(path, "rb") as f:
-        return f.read(len(LFS_POINTER_PREFIX)) == LFS_POINTER_PREFIX
+        if f.read(len(LFS_POINTER_PREFIX)) == LFS_POINTER_PREFIX:
+            raise UserError(f"{path}: a Git LFS pointer, not the image (fetch the files with `git lfs pull` "
+                            "in the repository they came from)")
 
 
 _quiet = {"lock": threading.Lock(), "depth": 0, "saved": None, "streams": None}  # shared by threads reading at once

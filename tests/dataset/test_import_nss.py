@@ -119,7 +119,7 @@ def nan_colour(cap):
     (wrong_lr_size, "0003.exr: size 15x8, expected 16x8"),
     (ratio_does_not_divide, "TargetResolution 33x16 is not divisible by ratio 2"),
     (missing_frame, "motion_gt/0000: frame file 0003.exr where"),
-    (lfs_pointer, "x2/color/0000/0001.exr: a Git LFS pointer, not the EXR image"),
+    (lfs_pointer, "x2/color/0000/0001.exr: a Git LFS pointer, not the image"),
     (truncated_exr, "ground_truth/0000/0003.exr: not a valid OpenEXR file"),
     (nan_colour, "fails data check (1 error(s)), first: error: x2/0000/lr/color/00001.exr: 384 NaN/Inf value(s)"),
 ], ids=lambda v: getattr(v, "__name__", ""))

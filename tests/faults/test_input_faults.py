@@ -19,7 +19,7 @@ from mnss_kit.model.families import build_model, randomise_convs
 from fault_helpers import assert_one_line_fault, run_cli
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "dataset"))
-from capture_helpers import write_nss_capture  # noqa: E402
+from capture_helpers import write_nss_capture, write_packed_capture  # noqa: E402
 
 LFS_POINTER = ("version https://git-lfs.github.com/spec/v1\n"
                "oid sha256:4d7a214614ab2935c943f9e0ff69d22eadbb8f32b1258daaa5e2ca24d17e2393\nsize 24593\n")
@@ -73,6 +73,14 @@ def import_case(damage, words: list[str]):
     return prepare
 
 
+def images_lfs_pointer(scratch: Path, ckpt: Path, data: Path):
+    write_packed_capture(scratch / "cap")
+    path = scratch / "cap" / "seq0" / "lr" / "depth" / "0002.png"
+    path.write_text(LFS_POINTER)
+    return ["data", "import", "images", scratch / "cap", "--mapping", "packed8", "--out", scratch / "out"], \
+        [str(path), "Git LFS pointer"]
+
+
 def a16_beyond_the_graph(scratch: Path, ckpt: Path, data: Path):
     argv = ["quantize", ckpt, "--data", data, "--out", scratch / "out", "--frames", 2, "--pipeline-frames", 0,
             "--a16", 1000, "--no-progress"]
@@ -96,6 +104,7 @@ CASES = {
     "export-resolution-huge": resolution("export"),
     "import-nss-lfs-pointer": import_case(_lfs_pointer, ["Git LFS pointer", "git lfs pull"]),
     "import-nss-truncated-exr": import_case(_truncated, ["not a valid OpenEXR file"]),
+    "import-images-lfs-pointer": images_lfs_pointer,
 }
 
 

@@ -23,6 +23,7 @@ PNG_CHANNELS = {0: 1, 2: 3, 4: 2, 6: 4}  # colour type -> channels (3, palette, 
 def read_image(path: Path) -> np.ndarray:
     if not path.is_file():
         raise UserError(f"missing file: {path}")
+    exr.refuse_lfs_pointer(path)
     suffix = path.suffix.lower()
     if suffix == ".png":
         return _read_png(path)
