@@ -8,30 +8,33 @@ formulas are this toolkit's.  Per frame, LR inputs colour (jittered, display val
 previous frame; ``ops.conventions``), state the HR history and the HR lock status:
 
 1. Reconstruct and dilate (``dilate``, ``reconstruct_previous_depth``; GPU ``fsr2_reconstruct_pass``).
-   Each LR pixel takes the depth and motion of the nearest surface in its 3x3 neighbourhood, so
-   thin foreground edges carry their own motion.  The dilated depth is scattered along the
-   dilated motion into the previous frame (the four texels of the bilinear footprint, the nearest
-   depth wins): an estimate of the previous frame's depth that needs no depth history.
+   Each LR pixel takes the depth and motion of the nearest surface in its 3x3 neighbourhood when
+   that surface is nearer by more than ``dilation_edge`` of the pixel's depth (across an edge, so
+   thin foreground edges carry their own motion; not along a slope, whose nearer neighbour is the
+   same surface moving differently).  The dilated depth is scattered along the dilated motion
+   into the previous frame (the four texels of the bilinear footprint, the nearest depth wins):
+   an estimate of the previous frame's depth that needs no depth history.
 2. Depth clip (``disocclusion``; GPU ``fsr2_depth_clip_pass``).  Where this frame's surface lies
    behind the reconstructed previous depth at its previous position by more than a tolerance
-   (relative to its depth, plus the surface's own slope), something in front covered it last
-   frame: the history there is of another surface, and its weight is cut.  The same pass marks
-   thin features (``thin_features``): LR pixels whose luma is a strict local extreme across a
-   row or column by at least ``lock_contrast``.
-3. Lock (in ``accumulate``).  A thin feature locks the HR pixel its sample lands on: for
-   ``lock_frames`` frames the history there is trusted past the colour clamp (which would erase a
-   one-pixel line the LR frame only sometimes sees).  Locks move with the history; a disocclusion
-   removes them, and so does luma instability: a new sample on a locked pixel whose luma differs
-   from the locked luma by more than ``lock_luma_tolerance``.
-4. Accumulate (``accumulate``; GPU ``fsr2_accumulate_pass``).  This frame's samples are
-   reconstructed at each HR pixel by a Lanczos-2 kernel (the exact windowed sinc, 4x4 LR taps,
-   separable, deringed by clamping to the 2x2 nearest samples); their weight in the blend is the
-   Lanczos-2 value at the distance (HR pixels) from the pixel centre to its nearest sample, so a
-   pixel that a sample landed on takes it almost fully.  The history, fetched by Catmull-Rom at
-   the position the dilated motion gives, is clamped in YCoCg to the mean +- ``gamma`` std of the
-   3x3 LR samples around the nearest one (less where a lock holds), weighted by its accumulated
-   sample weight after the depth clip and the optional reactive mask, and blended.  The weight
-   accumulates up to ``max_weight``; a reset or a surface from off-screen starts it at zero.
+   (``depth_tolerance`` of its depth plus ``slope_factor`` times the surface's own depth step),
+   something in front covered it last frame: the history there is of another surface, and its
+   weight is cut.  The same pass marks thin features (``thin_features``): LR pixels whose luma is
+   a strict local extreme across a row or column by at least ``lock_contrast``.
+3. Lock (``update_locks``, in ``accumulate``).  A thin feature locks the HR pixel its sample lands
+   in: for ``lock_frames`` frames the history there is trusted past the colour clamp (which would
+   erase a one-pixel line the LR frame only sometimes sees).  Locks move with the history; a
+   disocclusion removes them, and so does luma instability: a new sample on a locked pixel whose
+   luma differs from the locked luma by more than ``lock_luma_tolerance``.
+4. Accumulate (``accumulate``; GPU ``fsr2_accumulate_pass``).  This frame's samples reach each HR
+   pixel through the main lobe of a Lanczos-2 kernel on their distance in HR pixels (scaled by
+   ``kernel_width``), whose total is their weight in the blend: a sample landing on the pixel
+   centre counts fully.  The history, fetched by Catmull-Rom at the position the dilated motion
+   (bilinearly upsampled) gives, is clamped in YCoCg to the mean +- ``gamma`` std of the 3x3 LR
+   samples around the nearest one (less where a lock holds); its weight (fetched bilinearly) is
+   cut by the fetch's blur (``resample_penalty``), the depth clip and the optional reactive mask.
+   The frame's Lanczos-2 upsampling (exact windowed sinc, 4x4 LR taps, deringed to the 2x2
+   nearest samples) fills in with ``prior_weight``, fading as history weight builds up.  The
+   weight accumulates up to ``max_weight``; a reset or a surface from off-screen starts it at 0.
 5. RCAS (``rcas``; GPU ``fsr2_rcas_pass``), optional.  Robust contrast-adaptive sharpening of the
    output (not of the history): a negative-lobe cross filter whose lobe is the strongest that
    cannot push the pixel outside [0, 1] given its four neighbours' extremes, capped and scaled by
@@ -47,10 +50,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .taau import nearest_up, rgb_to_ycocg, ycocg_to_rgb
+from .resample import bilinear_sample
 from .warp import upsample_motion
 
 NO_DEPTH = np.float32(1.0)  # reconstructed previous depth where no surface landed: the far plane, never a clip
 RCAS_LOBE_LIMIT = np.float32(0.1875)  # the strongest lobe: -0.1875 keeps the centre tap at 1.75 of the sum
+PRIOR_FADE = np.float32(3.0)  # the prior's weight falls by e^-3 per unit of history weight
 LUMA = np.array([0.25, 0.5, 0.25], np.float32)  # YCoCg's Y
 
 
@@ -62,7 +67,7 @@ class FSR2Params:
     gamma: float = 3.0  # clamp box half-width in standard deviations of the 3x3 samples
     resample_penalty: float = 1.0  # history weight lost per unit of the fetch's blur (sum over axes of t (1 - t))
     kernel_width: float = 0.6  # HR pixels from a sample to its kernel's first zero
-    prior_weight: float = 0.005  # weight of the Lanczos upsampled frame: what a pixel shows before samples land near it
+    prior_weight: float = 0.1  # weight of the Lanczos-upsampled frame where the history is empty (PRIOR_FADE)
     dilation_edge: float = 0.05  # a neighbour this much nearer (relative) is across an edge: dilate to it
     depth_tolerance: float = 0.02  # relative depth separation that starts a depth clip
     slope_factor: float = 2.0  # plus this many times the surface's depth step per LR pixel
@@ -322,8 +327,8 @@ def variance_box(current: np.ndarray, rows: np.ndarray, cols: np.ndarray, gamma:
 def reproject(history: np.ndarray, locks: np.ndarray, dilated_motion: np.ndarray, scale: int, reset: bool):
     """The state warped to this frame by the dilated motion, bilinearly upsampled (``ops.warp``; the
     LR cell's own motion would be off by up to half an LR pixel's motion gradient): the history
-    colour (Catmull-Rom, clamp-to-edge, YCoCg) ``(H, W, 3)``, its weight ``(H, W, 1)`` and the
-    locks ``(H, W, 2)`` (nearest texel); weight and locks zero after a reset and where the surface
+    colour (Catmull-Rom, clamp-to-edge, YCoCg) ``(H, W, 3)``, its weight ``(H, W, 1)`` (bilinear)
+    and the locks ``(H, W, 2)`` (nearest texel); weight and locks zero after a reset and where the surface
     was off-screen."""
     hh, hw = history.shape[:2]
     motion = upsample_motion(np.asarray(dilated_motion, np.float32), scale)
@@ -345,7 +350,8 @@ def reproject(history: np.ndarray, locks: np.ndarray, dilated_motion: np.ndarray
     nc = np.clip(np.floor(px), 0, hw - 1).astype(np.int64)
     tx, ty = fx - np.floor(fx), fy - np.floor(fy)
     spread = (tx * (1.0 - tx) + ty * (1.0 - ty))[..., None]
-    return rgb_to_ycocg(colour), history[nr, nc, 3:4] * keep, locks[nr, nc] * keep, spread
+    weight = bilinear_sample(history[..., 3:4], px, py)  # spread like the colour: MNSS hits are one pixel in four
+    return rgb_to_ycocg(colour), weight * keep, locks[nr, nc] * keep, spread
 
 
 def accumulate(colour: np.ndarray, dilated_motion: np.ndarray, analysis: np.ndarray, history: np.ndarray,
@@ -372,7 +378,7 @@ def accumulate(colour: np.ndarray, dilated_motion: np.ndarray, analysis: np.ndar
     clamped = np.minimum(np.maximum(previous, lo), hi)
     previous = clamped + trust * (previous - clamped)
     weight = weight * (1.0 - disoccluded) * (1.0 - reactive)
-    prior = np.float32(params.prior_weight)
+    prior = np.float32(params.prior_weight) * np.exp(-PRIOR_FADE * weight)  # fills what no sample reached yet
     blended = (weight * previous + sample_weight * samples + prior * upsampled) / (weight + sample_weight + prior)
     rgb = np.clip(ycocg_to_rgb(blended), 0.0, 1.0)
     next_weight = np.minimum(weight + sample_weight, np.float32(params.max_weight))

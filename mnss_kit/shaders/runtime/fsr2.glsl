@@ -8,6 +8,7 @@ const float FSR2_LUMA_R = 0.25;
 const float FSR2_LUMA_G = 0.5;
 const float FSR2_LUMA_B = 0.25;
 const float RCAS_LOBE_LIMIT = 0.1875;
+const float PRIOR_FADE = 3.0;
 const float PI = 3.14159265358979;
 
 float fsr2_luma(vec3 rgb) {
@@ -200,7 +201,7 @@ Box variance_box_at(highp sampler2D color, ivec2 lr, float gamma) {
 // The state at HR texel `hr` warped by the HR `motion` (the dilated motion upsampled; ops.fsr2.reproject).
 struct Reprojected {
     vec3 colour;    // YCoCg, Catmull-Rom
-    float weight;   // 0 on a reset or from off-screen
+    float weight;   // bilinear; 0 on a reset or from off-screen
     vec2 lock;      // lifetime, locked luma (nearest texel); 0 like the weight
     float spread;   // the fetch's blur: t (1 - t) summed over the axes
 };
@@ -227,7 +228,7 @@ Reprojected reproject_at(highp sampler2D history, highp sampler2D locks, vec2 mo
     ivec2 nearest = ivec2(clamp(floor(p), vec2(0.0), vec2(last)));
     Reprojected r;
     r.colour = rgb_to_ycocg(acc);
-    r.weight = keep ? texelFetch(history, nearest, 0).a : 0.0;
+    r.weight = keep ? bilinear_sample(history, p).a : 0.0;
     r.lock = keep ? texelFetch(locks, nearest, 0).xy : vec2(0.0);
     r.spread = t.x * (1.0 - t.x) + t.y * (1.0 - t.y);
     return r;

@@ -66,8 +66,8 @@ void main() {
     vec3 clamped = min(max(r.colour, box.lo), box.hi);
     vec3 previous = clamped + trust * (r.colour - clamped);
     weight = weight * (1.0 - disoccluded) * (1.0 - reactivity);
-    vec3 blended = (weight * previous + sample_weight * samples.rgb + u_prior_weight * upsampled) /
-                   (weight + sample_weight + u_prior_weight);
+    float prior = u_prior_weight * exp(-PRIOR_FADE * weight);
+    vec3 blended = (weight * previous + sample_weight * samples.rgb + prior * upsampled) / (weight + sample_weight + prior);
     vec3 rgb = clamp(ycocg_to_rgb(blended), 0.0, 1.0);
     imageStore(next_history, hr, round_to_half(vec4(rgb, min(weight + sample_weight, u_max_weight))));
     imageStore(next_locks, hr, round_to_half(vec4(lock, 0.0, 0.0)));
