@@ -29,7 +29,7 @@ from ..config import CONFIG_DIR, apply_overrides, from_dict, read_yaml, resolve_
 from ..errors import UserError
 from ..ops import jitter as jitter_ops
 
-BUILTIN_SCENES = ("arena", "town", "flight", "factory", "rooms", "rooms_unseen", "garden")
+BUILTIN_SCENES = ("arena", "town", "flight", "factory", "rooms", "rooms_unseen", "garden", "plaza")
 SCENE_SUFFIXES = (".gltf", ".glb", ".obj")
 EXTRA_REFERENCES = ("taa", "4x")  # the renderer's optional native-AA references
 SCENE_CAMERAS = ("auto", "still")  # a built-in scene's own path, moving or held; an imported scene has none

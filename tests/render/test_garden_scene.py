@@ -1,5 +1,6 @@
-"""The garden: alpha-tested cut-outs leave holes, articulated limbs get exact motion vectors, the scene
-renders deterministically and passes data check, and no training config renders it."""
+"""The garden and the plaza: alpha-tested cut-outs leave holes, articulated limbs get exact motion
+vectors, both scenes render deterministically and pass data check, no training config renders the
+garden and only the plaza's own training config renders the plaza."""
 
 from __future__ import annotations
 
@@ -30,6 +31,7 @@ version: 1
 defaults: {lr_size: [64, 36], scale: 2, jitter: mnss, hr_samples: 4, fps: 30, frames: 5}
 sequences:
   - {name: garden, scene: garden, seed: 401, particles: true, animated_light: true, start_time: 0.3}
+  - {name: plaza, scene: plaza, seed: 21, particles: true, frames: 3}
 """
 
 
@@ -125,24 +127,27 @@ def tiny_garden(tmp_path_factory):
     return root
 
 
-def test_garden_passes_data_check_without_warnings(tiny_garden):
+def test_garden_and_plaza_pass_data_check_without_warnings(tiny_garden):
     report = check_dataset(tiny_garden / "a", progress=False)
     assert not report.errors and not report.warnings, [p.line() for p in report.problems]
 
 
 def test_garden_renders_deterministically(tiny_garden):
-    a, b = tiny_garden / "a" / "garden", tiny_garden / "b" / "garden"
+    a, b = tiny_garden / "a", tiny_garden / "b"
     files = sorted(p.relative_to(a) for p in a.rglob("*.exr"))
-    expected = {Path(res, name, f"{f:05d}.exr") for res, name in (("lr", "color"), ("hr", "reference"), ("hr", "motion")) for f in range(5)}
+    expected = {Path(seq, res, name, f"{f:05d}.exr") for seq, frames in (("garden", 5), ("plaza", 3))
+                for res, name in (("lr", "color"), ("hr", "reference"), ("hr", "motion")) for f in range(frames)}
     assert expected <= set(files)
     for name in files:
         np.testing.assert_array_equal(read_exr(a / name), read_exr(b / name))
 
 
-def test_only_held_out_configs_render_the_garden():
-    users = {p.stem for p in (CONFIG_DIR / "data").glob("*.yaml")
-             if "garden" in {s.scene for s in load_render_config(str(p)).sequences}}
-    assert users == {"garden_x2", "unseen_x2", "stress"}
+def test_only_held_out_configs_render_the_garden_and_only_its_own_training_config_the_plaza():
+    def users(scene: str) -> set[str]:
+        return {p.stem for p in (CONFIG_DIR / "data").glob("*.yaml") if scene in {s.scene for s in load_render_config(str(p)).sequences}}
+
+    assert users("garden") == {"garden_x2", "unseen_x2", "stress"}
+    assert users("plaza") == {"train_figures_x2"}
     unseen = {s.name: s for s in load_render_config("unseen_x2").sequences}
     for seq in load_render_config("garden_x2").sequences:  # the same sequences: either renders into the other's directory
         assert unseen[seq.name] == seq

@@ -1,6 +1,6 @@
 """Built-in scenes (three modelled on game genres, one industrial interior, furnished rooms from the
 installed furniture catalogue in a training and an unseen variant, a held-out garden of alpha-tested
-foliage and articulated figures) and the scene-file import path."""
+foliage and articulated figures, a training town square of such figures) and the scene-file import path."""
 
 from __future__ import annotations
 
@@ -10,10 +10,11 @@ from ...errors import UserError
 from ..camera import CameraPath
 from ..config import SCENE_CAMERAS, RenderConfig, SequenceConfig, resolve_asset
 from ..scene import Scene, Sun, static_instances
-from . import arena, factory, flight, garden, rooms, town
+from . import arena, factory, flight, garden, plaza, rooms, town
 
 BUILDERS = {"arena": arena.build, "town": town.build, "flight": flight.build, "factory": factory.build,
-            "rooms": rooms.build, "rooms_unseen": rooms.build_unseen, "garden": garden.build}
+            "rooms": rooms.build, "rooms_unseen": rooms.build_unseen, "garden": garden.build,
+            "plaza": plaza.build}
 
 
 def build_scene(seq: SequenceConfig, cfg: RenderConfig) -> Scene:
