@@ -259,16 +259,13 @@ def lanczos_upsample(current: np.ndarray, jitter, scale: int) -> np.ndarray:
         weights = lanczos2((u - np.float32(0.5) - base)[:, None] - np.arange(-1, 3, dtype=np.float32))
         axes.append((index, weights / weights.sum(axis=1, keepdims=True)))
     (rows, wy), (cols, wx) = axes
-    out = np.zeros((h * scale, w * scale, current.shape[2]), np.float32)
-    lo = np.full_like(out, np.inf)
-    hi = np.full_like(out, -np.inf)
-    for a in range(4):
-        for b in range(4):
-            tap = current[rows[:, a]][:, cols[:, b]]
-            out += (wy[:, a, None, None] * wx[None, :, b, None]) * tap
-            if a in (1, 2) and b in (1, 2):
-                lo, hi = np.minimum(lo, tap), np.maximum(hi, tap)
-    return np.clip(out, lo, hi)
+    # separable: along x at LR rows, then along y (the sums in another order than the shader's 4x4)
+    across = sum(wx[None, :, b, None] * current[:, cols[:, b]] for b in range(4))
+    out = sum(wy[:, a, None, None] * across[rows[:, a]] for a in range(4))
+    near_x = [np.minimum(current[:, cols[:, 1]], current[:, cols[:, 2]]), np.maximum(current[:, cols[:, 1]], current[:, cols[:, 2]])]
+    lo = np.minimum(near_x[0][rows[:, 1]], near_x[0][rows[:, 2]])
+    hi = np.maximum(near_x[1][rows[:, 1]], near_x[1][rows[:, 2]])
+    return np.clip(out, lo, hi).astype(np.float32)
 
 
 def reconstruct_samples(current: np.ndarray, jitter, scale: int, kernel_width: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
@@ -286,15 +283,11 @@ def reconstruct_samples(current: np.ndarray, jitter, scale: int, kernel_width: f
         offsets = (distance[:, None] - np.float32(scale) * np.arange(-1, 2, dtype=np.float32)) / np.float32(kernel_width)
         axes.append((index, np.where(np.abs(offsets) < 1.0, lanczos2(offsets), np.float32(0.0))))
     (rows, wy), (cols, wx) = axes
-    acc = np.zeros((h * scale, w * scale, current.shape[2]), np.float32)
-    total = np.zeros((h * scale, w * scale, 1), np.float32)
-    for a in range(3):
-        for b in range(3):
-            weight = (wy[:, a, None] * wx[None, :, b])[..., None]
-            acc += weight * current[rows[:, a]][:, cols[:, b]]
-            total += weight
+    across = sum(wx[None, :, b, None] * current[:, cols[:, b]] for b in range(3))  # separable, as above
+    acc = sum(wy[:, a, None, None] * across[rows[:, a]] for a in range(3))
+    total = (wy.sum(axis=1)[:, None] * wx.sum(axis=1)[None, :])[..., None]
     nearest = current[rows[:, 1]][:, cols[:, 1]]
-    return np.where(total > 0, acc / np.where(total > 0, total, np.float32(1.0)), nearest), total
+    return np.where(total > 0, acc / np.where(total > 0, total, np.float32(1.0)), nearest).astype(np.float32), total
 
 
 def nearest_sample_index(h: int, w: int, jitter, scale: int) -> tuple[np.ndarray, np.ndarray]:
@@ -340,12 +333,13 @@ def reproject(history: np.ndarray, locks: np.ndarray, dilated_motion: np.ndarray
     wx, wy = catmull_rom_weights(fx - bx), catmull_rom_weights(fy - by)
     bx = np.clip(bx, -2, hw).astype(np.int64)  # far off-screen positions stay defined (their weight is 0)
     by = np.clip(by, -2, hh).astype(np.int64)
+    flat = np.ascontiguousarray(history[..., :3]).reshape(hh * hw, 3)  # flat gathers: much faster than 2-D indexing
     colour = np.zeros((hh, hw, 3), np.float32)
     for a in range(4):
-        r = np.clip(by + a - 1, 0, hh - 1)
+        r = np.clip(by + a - 1, 0, hh - 1) * hw
         for b in range(4):
             c = np.clip(bx + b - 1, 0, hw - 1)
-            colour += (wy[..., a] * wx[..., b])[..., None] * history[r, c, :3]
+            colour += (wy[..., a] * wx[..., b])[..., None] * np.take(flat, r + c, axis=0)
     nr = np.clip(np.floor(py), 0, hh - 1).astype(np.int64)
     nc = np.clip(np.floor(px), 0, hw - 1).astype(np.int64)
     tx, ty = fx - np.floor(fx), fy - np.floor(fy)
