@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 from mnss_kit.config import CONFIG_DIR
-from mnss_kit.dataset import format as fmt
 from mnss_kit.dataset.check import check_dataset
 from mnss_kit.dataset.exr import read_exr
 from mnss_kit.render import shapes, textures

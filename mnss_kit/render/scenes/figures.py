@@ -19,7 +19,7 @@ from .. import shapes
 from ..mesh import Material, Mesh
 from .common import SceneBuilder
 
-Path = Callable[[float], tuple[np.ndarray, float]]  # t -> (feet position (3,), heading degrees)
+WalkPath = Callable[[float], tuple[np.ndarray, float]]  # t -> (feet position (3,), heading degrees)
 LimbTransform = Callable[[float], np.ndarray]
 
 
@@ -52,7 +52,7 @@ class Outfit:
     skin: Material  # head and forearms
 
 
-def limbs(style: FigureStyle, path: Path, outfit: Outfit) -> list[tuple[Mesh, LimbTransform]]:
+def limbs(style: FigureStyle, path: WalkPath, outfit: Outfit) -> list[tuple[Mesh, LimbTransform]]:
     """The figure's ``(mesh in joint space, t -> object-to-world)`` pairs, one per rigid limb."""
     h, w = style.height, style.width
     thigh, shin, upper_arm, forearm = 0.25 * h, 0.25 * h, 0.18 * h, 0.17 * h
@@ -106,7 +106,7 @@ def limbs(style: FigureStyle, path: Path, outfit: Outfit) -> list[tuple[Mesh, Li
     return parts
 
 
-def add_figure(b: SceneBuilder, style: FigureStyle, path: Path, outfit: Outfit) -> None:
+def add_figure(b: SceneBuilder, style: FigureStyle, path: WalkPath, outfit: Outfit) -> None:
     for mesh, transform in limbs(style, path, outfit):
         b.animate(mesh, transform)
 
