@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 HELP = "check, describe, cache or import a dataset (data check | info | cache DIR, data import FORMAT SRC)"
@@ -158,7 +159,7 @@ def run_import(args: argparse.Namespace) -> int:
         if not args.mapping:
             raise UserError("the images format needs --mapping (a YAML path, or a name under mnss_kit/configs/import/)")
         result = import_images(args.src, args.mapping, args.out, overwrite=args.overwrite)
-    for line in result.warnings + result.notes:
-        print(line)
+    for line in result.warnings + result.notes:  # diagnostics on stderr: stdout is the result line
+        print(line, file=sys.stderr)
     print(f"imported {result.sequences} sequence(s), {result.frames} frames -> {', '.join(result.datasets)}")
     return 0

@@ -23,7 +23,7 @@ def test_import_reproduces_every_buffer_jitter_and_cut(tmp_path, capsys):
     cap = write_nss_capture(tmp_path / "cap", ratios=("2", "1_5"), frames=5, cut_at=3, exposure=1.5)
     code, out, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
     assert code == 0, err
-    assert "x1_5: 5 frames found, not imported: ratio 1.5 is fractional and is not yet trainable" in out
+    assert "x1_5: 5 frames found, not imported: ratio 1.5 is fractional and is not yet trainable" in err
     assert not (tmp_path / "out" / "x1_5").exists()
     (seq,) = find_sequences(tmp_path / "out" / "x2")
     meta = read_meta(seq)
@@ -164,7 +164,7 @@ def test_arm_sample_layout_imports_the_frames_present_and_passes_data_check(tmp_
     arm_sample_layout(tmp_path / "cap", 2)
     code, out, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
     assert code == 0, err
-    assert "frame files for 2 of the 5 frames 0000.json lists (3 missing); imported frames 0..1" in out
+    assert "frame files for 2 of the 5 frames 0000.json lists (3 missing); imported frames 0..1" in err
     assert "imported 1 sequence(s), 2 frames" in out
     (seq,) = find_sequences(tmp_path / "out" / "x2")
     meta = read_meta(seq)
