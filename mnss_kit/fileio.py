@@ -282,7 +282,7 @@ def _filesystem_errors(path: Path) -> Iterator[None]:
     try:
         yield
     except shutil.Error as e:  # copytree gathers its per-file errors as (src, dst, reason) text
-        refused = [why for *_, why in _copy_errors(e) if any(os.strerror(n) in why for n in _WRITE_ERRNOS)]
+        refused = [why for *_, why in _copy_errors(e) if refused_write(why)]
         if refused:
             raise UserError(f"cannot write {path}: {refused[0]}") from None
         raise
@@ -290,6 +290,12 @@ def _filesystem_errors(path: Path) -> Iterator[None]:
         if e.errno in _WRITE_ERRNOS:
             raise _write_error(path, e) from None
         raise
+
+
+def refused_write(text: str) -> str | None:
+    """The reason a library's error ``text`` gives when the filesystem refused a write (disk full,
+    quota, read-only, file too large), for libraries that report it as text, not as an OSError."""
+    return next((os.strerror(n) for n in sorted(_WRITE_ERRNOS) if os.strerror(n) in text), None)
 
 
 def _copy_errors(e: shutil.Error) -> list[tuple]:

@@ -14,7 +14,7 @@ import numpy as np
 import OpenEXR
 
 from ..errors import UserError
-from ..fileio import atomic_output_path
+from ..fileio import atomic_output_path, refused_write
 
 # channel names by channel count; depth uses "Z" (see dataset.format.BUFFERS)
 CHANNEL_NAMES = {1: ("Y",), 2: ("R", "G"), 3: ("R", "G", "B"), 4: ("R", "G", "B", "A")}
@@ -33,8 +33,14 @@ def write_exr(path: str | os.PathLike, image: np.ndarray, half: bool = True, cha
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     path = Path(path)
     with atomic_output_path(path) as tmp:
-        with OpenEXR.File(header, chans) as f:
-            f.write(str(tmp))
+        try:
+            with OpenEXR.File(header, chans) as f:
+                f.write(str(tmp))
+        except RuntimeError as e:  # the bindings report a full disk as text ("Failed to write pixel data ...")
+            reason = refused_write(str(e))
+            if reason:
+                raise UserError(f"cannot write {path}: {reason}") from None
+            raise
     return path
 
 

@@ -62,7 +62,7 @@ class SequenceConfig:
         if min(self.lr_size) < 8 or max(self.lr_size) > 8192:
             raise ValueError(f"sequence '{self.name}': lr_size {list(self.lr_size)} out of range (8..8192)")
         root = math.isqrt(self.hr_samples) if self.hr_samples > 0 else 0
-        if root * root != self.hr_samples:
+        if self.hr_samples < 1 or root * root != self.hr_samples:
             raise ValueError(f"sequence '{self.name}': hr_samples must be a square (1, 4, 9, 16, 25, ...), got {self.hr_samples}")
         if self.exposure <= 0:
             raise ValueError(f"sequence '{self.name}': exposure must be > 0")
