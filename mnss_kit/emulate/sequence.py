@@ -49,6 +49,10 @@ def sequence_frames(seq_dir: Path, meta: SequenceMeta, frames: int | None,
 
 
 def check_data(emulator: Emulator, seq_dir: Path, meta: SequenceMeta) -> None:
+    """data check's checks (its errors refuse the sequence), then the bundle's sizes and jitter."""
+    from ..dataset.check import require_clean
+
+    require_clean(seq_dir)
     scale = emulator.spec.scale
     if meta.scale != scale:
         raise UserError(f"{seq_dir}: scale {meta.scale}, the bundle is x{scale}")

@@ -35,22 +35,40 @@ def _no_frames(seq):
 
 FAULTS = {"inf_depth": _inf_depth, "huge_motion": _huge_motion, "no_frames": _no_frames}
 COMMANDS = {
-    "eval": lambda data, out: ["eval", "none", "--data", str(data), "--no-progress"],
-    "data variant": lambda data, out: ["data", "variant", str(data), "--out", str(out / "v"), "--apply", "ldr8"],
-    "finetune": lambda data, out: ["finetune", str(data), "--out", str(out / "ft"), "--no-progress"],
+    "eval": lambda data, out, bundle: ["eval", "none", "--data", str(data), "--no-progress"],
+    "data variant": lambda data, out, bundle: ["data", "variant", str(data), "--out", str(out / "v"), "--apply", "ldr8"],
+    "finetune": lambda data, out, bundle: ["finetune", str(data), "--out", str(out / "ft"), "--no-progress"],
+    "emulate": lambda data, out, bundle: ["emulate", str(bundle), "--data", str(data), "--out", str(out / "e")],
 }
+
+
+@pytest.fixture(scope="module")
+def bundle(tmp_path_factory, synthetic_dataset):
+    """A tiny x2 model's bundle at the synthetic data's size."""
+    import torch
+
+    from mnss_kit.model import checkpoint
+    from mnss_kit.model.config import load_model_config
+    from mnss_kit.model.families import build_model
+
+    root = tmp_path_factory.mktemp("checked_reads_bundle")
+    torch.manual_seed(0)
+    ckpt = checkpoint.save(root / "tiny.pt", build_model(load_model_config("mnss_x2_tiny")).eval(), {"jitter_pattern": "mnss"})
+    assert main(["export", str(ckpt), "--out", str(root / "b"), "--resolution", "64x48", "--data", str(synthetic_dataset),
+                 "--golden-frames", "2", "--no-progress"]) == 0
+    return root / "b"
 
 
 @pytest.mark.parametrize("fault", FAULTS)
 @pytest.mark.parametrize("command", COMMANDS)
-def test_data_data_check_refuses_is_refused_with_its_line(synthetic_dataset, tmp_path, capsys, fault, command):
+def test_data_data_check_refuses_is_refused_with_its_line(synthetic_dataset, bundle, tmp_path, capsys, fault, command):
     seq = shutil.copytree(synthetic_dataset / "pan", tmp_path / "data" / "pan")
     where = FAULTS[fault](seq)
     report = check_dataset(tmp_path / "data", progress=False)
     assert report.errors, "data check must call it an error"
     capsys.readouterr()
     out = tmp_path / "out"
-    assert main(COMMANDS[command](tmp_path / "data", out)) == 2
+    assert main(COMMANDS[command](tmp_path / "data", out, bundle)) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "Traceback" not in err[0], err
     assert f"pan/{where}" in err[0] and report.errors[0].message in err[0]
