@@ -13,6 +13,7 @@ def evaluate_model(model_name: str, data_dir, methods: list[str] | None = None, 
     :func:`.run.evaluate`."""
     from ..dataset import format as fmt
     from ..errors import UserError
+    from .baselines import BASELINES, baseline_methods
     from .methods import default_methods
     from .run import evaluate
 
@@ -20,6 +21,8 @@ def evaluate_model(model_name: str, data_dir, methods: list[str] | None = None, 
     scale = info["scale"] if info else fmt.read_meta(fmt.find_sequences(data_dir)[0]).scale
     available = default_methods(model, scale)
     wanted = methods or list(available)
+    named = [m for m in wanted if m in BASELINES and m not in available]  # baselines run only when named (fsr2)
+    available.update(baseline_methods(scale, named))
     missing = [m for m in wanted if m not in available]
     if missing:
         raise UserError(f"method(s) {', '.join(missing)} need a model (MODEL is 'none')")

@@ -7,7 +7,8 @@ from pathlib import Path
 
 HELP = "Evaluate a model and baselines on a dataset (PSNR, SSIM, IF-SSIM, temporal error, cut recovery)."
 
-METHOD_NAMES = ("model", "model_nohist", "bicubic", "taau")
+METHOD_NAMES = ("model", "model_nohist", "bicubic", "taau", "fsr2")
+DEFAULT_NAMES = ("model", "model_nohist", "bicubic", "taau")  # fsr2 runs only when named
 REFERENCES = ("box", "taa", "4x")  # keys of dataset.format.REFERENCE_BUFFERS (not imported: the CLI starts fast)
 
 
@@ -29,7 +30,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--csv", metavar="FILE", help="write per-frame metrics (one row per frame and method) here")
     parser.add_argument("--crops", metavar="DIR", help="write side-by-side PNG crops (worst-error and centre regions) here")
     parser.add_argument("--methods", nargs="+", choices=METHOD_NAMES, metavar="NAME",
-                        help=f"methods to run (default: all of {', '.join(METHOD_NAMES)}; without a model: the baselines)")
+                        help=f"methods to run, of {', '.join(METHOD_NAMES)} (default: {', '.join(DEFAULT_NAMES)}; "
+                             "without a model: bicubic and taau)")
     parser.add_argument("--reference", choices=REFERENCES, default="box",
                         help="what the metrics compare against: box (hr/reference, the supersampled box filter; default), "
                              "taa (hr/reference_taa, an engine-style native TAA frame) or 4x (hr/reference_4x, 4 rotated-grid samples)")
