@@ -45,7 +45,7 @@ Pixel centres at +0.5, clamp-to-edge texel indices, jitter ``(2,)`` in LR pixels
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -54,7 +54,7 @@ from .resample import bilinear_sample
 from .warp import upsample_motion
 
 NO_DEPTH = np.float32(1.0)  # reconstructed previous depth where no surface landed: the far plane, never a clip
-RCAS_LOBE_LIMIT = np.float32(0.1875)  # the strongest lobe: -0.1875 keeps the centre tap at 1.75 of the sum
+RCAS_LOBE_LIMIT = np.float32(0.1875)  # the strongest lobe: taps -0.75 around a centre of 4 (they sum to 1)
 PRIOR_FADE = np.float32(3.0)  # the prior's weight falls by e^-3 per unit of history weight
 LUMA = np.array([0.25, 0.5, 0.25], np.float32)  # YCoCg's Y
 
@@ -89,7 +89,7 @@ class FSR2State:
     weight, ``locks`` (H, W, 2) each pixel's lock lifetime in [0, 1] and the luma it locked."""
 
     history: np.ndarray
-    locks: np.ndarray = field(default=None)
+    locks: np.ndarray
 
     @classmethod
     def empty(cls, hr_height: int, hr_width: int) -> "FSR2State":
