@@ -91,11 +91,13 @@ def write_variant(src: Path, dst: Path, names: list[str]) -> None:
     bits = 8 if "depth8" in names else 16 if "depth16" in names else None
     hardware = bits is not None or "depth_near_guess" in names
     cells = engine_motion.object_cells(meta.name)
+    references = [b for b in fmt.REFERENCE_BUFFERS.values() if b in meta.buffers.get("hr", [])]
     for i in range(meta.frame_count):
         if "ldr8" in names:
             lr = fmt.canonical_colour(fmt.read_raw_buffer(src, "lr", "color", i), meta)
             fmt.write_buffer(dst, "lr", "color", i, ldr8_colour(lr))
-            fmt.write_buffer(dst, "hr", "reference", i, fmt.canonical_colour(fmt.read_raw_buffer(src, "hr", "reference", i), meta))
+            for ref in references:  # every reference a metric may read, in the display space the copy records
+                fmt.write_buffer(dst, "hr", ref, i, fmt.canonical_colour(fmt.read_raw_buffer(src, "hr", ref, i), meta))
         if any(n in names for n in MOTION_VARIANTS):
             motion = engine_inputs_motion(src, meta, i, names, rng, cells)
             fmt.write_buffer(dst, "lr", "motion", i, _stored_motion(motion, meta, meta.lr_size).astype(np.float32))

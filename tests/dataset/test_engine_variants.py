@@ -141,3 +141,17 @@ def test_motion_rigid_touches_only_moving_objects(rendered, tmp_path):
         cam = fmt.canonical_motion(camera_motion(src, meta, i), meta, meta.lr_size)
         labels, _ = em.moving_objects(_motion(src, i), cam)
         np.testing.assert_array_equal(_motion(dst, i)[labels == 0], _motion(src, i)[labels == 0])
+
+
+def test_ldr8_converts_every_reference_to_display_space(tmp_path):
+    src = tmp_path / "data"
+    assert main(["render", "tiny_test", "--out", str(src), "--set", "frames=2", "--set", "extra_references=[taa,4x]",
+                 "--no-progress"]) == 0
+    write_variant_dataset(src, tmp_path / "v", ["ldr8"])
+    for seq in fmt.find_sequences(tmp_path / "v"):
+        meta, src_meta = fmt.read_meta(seq), fmt.read_meta(src / seq.name)
+        assert meta.color_space == "display"
+        for ref in fmt.REFERENCE_BUFFERS.values():
+            assert ref in meta.buffers["hr"]
+            np.testing.assert_allclose(fmt.read_buffer(seq, meta, "hr", ref, 1), fmt.read_buffer(src / seq.name, src_meta, "hr", ref, 1),
+                                       atol=2e-3)

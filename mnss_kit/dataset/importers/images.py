@@ -21,7 +21,7 @@ import numpy as np
 from ...config import load_config, resolve_config_path
 from ...errors import UserError
 from ...ops.jitter import PATTERNS, jitter_sequence
-from ..format import (BUFFERS, FORMAT_NAME, FORMAT_VERSION, REQUIRED_BUFFERS, FrameMeta, MotionConvention, SequenceMeta,
+from ..format import (BUFFERS, COLOUR_BUFFERS, FORMAT_NAME, FORMAT_VERSION, REQUIRED_BUFFERS, FrameMeta, MotionConvention, SequenceMeta,
                       write_buffer, write_meta)
 from .imagefiles import read_image
 from .publish import ImportResult, publish
@@ -31,7 +31,6 @@ PACKED_BASE = 255.0  # two 16-bit numbers per RGBA8 pixel: u = R/255 + G/255^2, 
 MOTION_KEYS = ("units", "points_to", "y_axis", "scale")
 DEPTH_KEYS = ("encoding", "reverse_z")
 COLOUR_KEYS = ("space",)
-COLOUR_BUFFERS = ("color", "reference")
 # buffers whose conventions meta.json records once for both: the first one's mapping sets them
 SHARED_CONVENTIONS = {("lr/color", "hr/reference"): COLOUR_KEYS, ("lr/motion", "hr/motion"): MOTION_KEYS,
                       ("lr/depth", "hr/depth"): DEPTH_KEYS}
