@@ -5,8 +5,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..fileio import atomic_output_path
-
 
 def verdict(row: dict, chosen: str | None) -> str:
     """``chosen``, ``meets targets`` or the reasons the rung was passed over (the table and the report)."""
@@ -42,35 +40,46 @@ def markdown(doc: dict) -> str:
 
 
 def write_chart(doc: dict, path: Path, title: str = "") -> Path:
-    """PSNR and IF-SSIM against MACs per output pixel for every rung, as one PNG."""
+    """PSNR and IF-SSIM against MACs per output pixel for every rung, as one PNG (or SVG, by the
+    suffix of ``path``).  Rung names are placed so that no two labels overlap
+    (:func:`mnss_kit.bench.charts.place_labels`); lines and marks are named in a legend below."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from ..bench.charts import place_labels, save_figure
+
     rows = sorted(doc["rows"].values(), key=lambda r: r["macs_per_pixel"])
     chosen = (doc.get("choice") or {}).get("config")
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6))
     for ax, key, label in ((axes[0], "psnr", "PSNR (dB)"), (axes[1], "if_ssim", "IF-SSIM")):
         x = [r["macs_per_pixel"] for r in rows]
         ax.plot(x, [r[key] for r in rows], "o-", color="tab:blue", label="ladder rungs")
         for r in rows:
-            ax.annotate(r["config"], (r["macs_per_pixel"], r[key]), textcoords="offset points", xytext=(4, 4), fontsize=8)
             if r["config"] == chosen:
                 ax.scatter([r["macs_per_pixel"]], [r[key]], s=220, facecolors="none", edgecolors="tab:red", linewidths=2, label="chosen")
+        lines = []
         for (name, q), style in zip(doc["baselines"].items(), ("--", ":")):
             ax.axhline(q[key], color="gray", linestyle=style, label=name)
+            lines.append(q[key])
         for line, text in _target_lines(doc, rows, key):
             ax.axhline(line, color="tab:green", linestyle="-.", label=text)
+            lines.append(line)
         ax.set_xscale("log")
+        ax.margins(x=0.2, y=0.2)  # room for the rung names inside the plot
         ax.set_xlabel("MACs per output pixel")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=8, loc="lower center", ncol=min(len(labels), 5), frameon=False)
     fig.suptitle(title or "model size ladder on held-out sequences")
-    fig.tight_layout()
-    with atomic_output_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    for ax, key in ((axes[0], "psnr"), (axes[1], "if_ssim")):
+        points = [(r["macs_per_pixel"], r[key]) for r in rows]
+        place_labels(ax, [(r["config"], xy, "black") for r, xy in zip(rows, points)], points,
+                     [q[key] for q in doc["baselines"].values()] + [v for v, _ in _target_lines(doc, rows, key)], fontsize=8)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 

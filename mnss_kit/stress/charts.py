@@ -5,22 +5,22 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ..fileio import atomic_output_path
 
-
-def write_plots(doc: dict, out_dir: Path) -> dict[str, Path]:
-    """``{scenario: PNG path}`` under ``out_dir``."""
+def write_plots(doc: dict, out_dir: Path, suffix: str = ".png") -> dict[str, Path]:
+    """``{scenario: PNG (or ``.svg``) path}`` under ``out_dir``."""
     import matplotlib
 
     matplotlib.use("Agg")
     out_dir.mkdir(parents=True, exist_ok=True)
-    return {name: _plot(name, entry, out_dir / f"{name}.png") for name, entry in doc["scenarios"].items()}
+    return {name: _plot(name, entry, out_dir / f"{name}{suffix}") for name, entry in doc["scenarios"].items()}
 
 
 def _plot(name: str, entry: dict, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 3.5))
+    from ..bench.charts import save_figure
+
+    fig, ax = plt.subplots(figsize=(7.5, 3.5))
     for method, psnrs in entry["per_frame_psnr"].items():
         ax.plot(range(len(psnrs)), [p if p is not None and math.isfinite(p) else math.nan for p in psnrs],
                 label=method, lw=1.2)
@@ -33,9 +33,8 @@ def _plot(name: str, entry: dict, path: Path) -> Path:
     ax.set_xlabel("frame")
     ax.set_ylabel("PSNR (dB)")
     ax.set_title(f"{name}: {entry['case']}", fontsize=8)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)  # outside: no curve hidden
     fig.tight_layout()
-    with atomic_output_path(path) as tmp:
-        fig.savefig(tmp, dpi=100, format="png")
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
