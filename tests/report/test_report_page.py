@@ -1,5 +1,8 @@
-"""The report page from small synthetic bench and stress documents, opened in headless Chromium."""
+"""The report page from small synthetic bench, stress and size documents, opened in headless Chromium:
+every image loads, no error is raised, and no two texts of a chart overlap where the browser lays
+them out."""
 
+import html
 import json
 import re
 import shutil
@@ -12,7 +15,6 @@ from mnss_kit.cli import main
 from mnss_kit.eval.crops import write_crops
 from mnss_kit.fileio import atomic_write_json
 from mnss_kit.report.page import build_report
-from mnss_kit.stress.charts import write_plots
 from mnss_kit.stress.scenarios import NOT_COVERED
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -22,32 +24,48 @@ PROBE = """<script>
 window.__errors = [];
 window.addEventListener('error', e => window.__errors.push(String(e.message || (e.target && e.target.src))), true);
 const realError = console.error; console.error = (...a) => { window.__errors.push(a.join(' ')); realError(...a); };
+// every chart's texts (point labels, legend, ticks, titles) as the browser laid them out, and the pairs
+// whose boxes intersect by more than half a pixel each way
+const chartTexts = div => [...div.querySelectorAll('text')].map(t => [t.textContent.trim(), t.getBoundingClientRect()])
+  .filter(([s, r]) => s && r.width > 0 && r.height > 0);
+const overlapping = boxes => boxes.flatMap(([s, a], i) => boxes.slice(i + 1).filter(([, b]) =>
+  Math.min(a.right, b.right) - Math.max(a.left, b.left) > 0.5 && Math.min(a.bottom, b.bottom) - Math.max(a.top, b.top) > 0.5)
+  .map(([t]) => [s, t]));
 window.addEventListener('load', () => {
   const out = document.createElement('pre'); out.id = 'probe';
   out.textContent = JSON.stringify({images: [...document.images].map(i => [i.getAttribute('src'), i.complete && i.naturalWidth > 0]),
+                                    charts: [...document.querySelectorAll('div.chart')].map(d => {
+                                      const boxes = chartTexts(d); return [d.id, boxes.map(([s]) => s), overlapping(boxes)]; }),
                                     errors: window.__errors});
   document.body.appendChild(out);
 });
 </script>"""
 
 
-def _record(name, family, precision, psnr, macs):
-    return {"name": name, "family": family, "precision": precision, "psnr": psnr, "ssim": 0.9, "if_ssim": 0.95,
-            "temporal_error": 0.01, "macs_per_pixel": macs, "params": 10, "cpu_ms": {"xnnpack": 1.5} if macs else None,
-            "device_ms": {"phone_a": 4.2} if macs else {}}
+def _record(name, family, precision, psnr, macs, ms=None):
+    return {"name": name, "family": family, "precision": precision, "psnr": psnr, "ssim": 0.9, "if_ssim": 0.95 + psnr / 1000,
+            "temporal_error": 0.01, "macs_per_pixel": macs, "params": 10, "cpu_ms": {"xnnpack": macs / 2000} if macs else None,
+            "device_ms": {"phone_a": ms, "phone_b": 2.5 * ms} if macs else {}}
+
+
+# names that start alike at nearly the same cost and quality, and a TAAU line through the markers:
+# what made the charts' labels overlap
+MODELS = [("ntaau_x2", "ntaau", 31.75, 2872, 3.1), ("ntaau_x2_fast", "ntaau", 31.62, 1429, 2.9),
+          ("ntaau_x2_tiny", "ntaau", 31.21, 1058, 2.8), ("mnss_x2", "mnss", 30.9, 7414, 6.4),
+          ("fusesr_x2_hybrid", "fusesr", 31.19, 9000, 7.0)]
 
 
 def _bench(root):
-    records = [_record("bicubic", "baseline", "baseline", 28.0, 0.0), _record("m", "mnss", "fp32", 31.0, 900.0),
-               _record("m", "mnss", "int8", 30.8, 900.0)]
+    records = [_record("bicubic", "baseline", "baseline", 29.1, 0.0), _record("taau", "baseline", "baseline", 31.2, 0.0)]
+    for name, family, psnr, macs, ms in MODELS:
+        records += [_record(name, family, "fp32", psnr, macs, ms), _record(name, family, "int8", psnr - 0.04, macs, ms)]
     section = {"records": {f"{r['name']}/{r['precision']}": r for r in records},
-               "settings": {"quick": True, "devices": ["phone_a"], "scale": 2, "data": "tiny_test"}}
-    doc = {"format": "mnss-kit-bench", "version": 2, "note": "synthetic", "benches": {"x2": section}}
+               "settings": {"quick": True, "devices": ["phone_a", "phone_b"], "scale": 2, "data": "tiny_test",
+                            "latency_size": [320, 180]}}
+    note = ("quality on held-out frames; cpu_ms medians of interleaved runs on a shared machine (compare ratios within one "
+            "run); device_ms are estimates from the device profiles, not measurements")
+    doc = {"format": "mnss-kit-bench", "version": 2, "note": note, "benches": {"x2": section}}
     atomic_write_json(root / "bench.json", doc)
-    from PIL import Image
-
-    (root / "charts" / "x2").mkdir(parents=True)
-    Image.new("RGB", (40, 30), (10, 120, 200)).save(root / "charts" / "x2" / "psnr_vs_macs.png")
     return root / "bench.json"
 
 
@@ -60,7 +78,6 @@ def _stress(root):
            "scenarios": {"camera_cut": {"case": "camera cut <history>", "frames": 3, "cuts": [1], "events": [1],
                                         "jitter_pattern": "mnss", "methods": methods,
                                         "per_frame_psnr": {m: [25.0, 20.0, 29.0] for m in methods}}}}
-    write_plots(doc, root / "plots")
     rng = np.random.default_rng(0)
     reference = rng.random((32, 32, 3))
     write_crops(root / "crops", "camera_cut", 2, reference, {m: np.clip(reference + 0.05 * rng.standard_normal((32, 32, 3)), 0, 1)
@@ -70,8 +87,6 @@ def _stress(root):
 
 
 def _size(root):
-    from mnss_kit.size.charts import write_chart
-
     def rung(config, macs, psnr, misses):
         return {"config": config, "macs_per_pixel": macs, "params": 100, "psnr": psnr, "ssim": 0.9, "if_ssim": 0.95,
                 "device_ms": {"phone_a": macs / 1000}, "steps": 10, "misses": misses}
@@ -82,16 +97,17 @@ def _size(root):
            "baselines": {"taau": {"psnr": 29.5, "ssim": 0.9, "if_ssim": 0.95}}, "choice": {"config": "big"}}
     (root / "size").mkdir()
     atomic_write_json(root / "size" / "size.json", doc)
-    write_chart(doc, root / "size" / "size.png")
     return root / "size" / "size.json"
 
 
-def _open(page, tmp_path):
-    """The probe's record and Chromium's console lines for ``page``, loaded with the probe script."""
+def _open(page, tmp_path, extra_body=""):
+    """The probe's record and Chromium's console lines for ``page``, loaded with the probe script
+    (and ``extra_body`` appended to the page)."""
     probe = page.with_name("probe.html")
-    probe.write_text(page.read_text().replace("<head>", "<head>" + PROBE, 1))
+    probe.write_text(page.read_text().replace("<head>", "<head>" + PROBE, 1).replace("</body>", extra_body + "</body>", 1))
     cmd = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
            "--disable-component-update", "--disable-sync", "--no-first-run", f"--user-data-dir={tmp_path / 'chromium'}",
+           "--window-size=1280,2000",
            "--enable-logging=stderr", "--v=0", "--virtual-time-budget=5000", "--dump-dom", probe.as_uri()]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     probe.unlink()
@@ -102,7 +118,10 @@ def _open(page, tmp_path):
     return record, console
 
 
-@pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium package (scripts/setup.sh installs it)")
+needs_chromium = pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium package (scripts/setup.sh installs it)")
+
+
+@needs_chromium
 def test_report_loads_in_chromium_with_every_image_and_no_console_error(tmp_path):
     page = build_report(_bench(tmp_path), _stress(tmp_path), tmp_path / "report", sizes=[_size(tmp_path)])
     text = page.read_text()
@@ -110,16 +129,63 @@ def test_report_loads_in_chromium_with_every_image_and_no_console_error(tmp_path
     assert "Model size for held-out held" in text and "Chosen: <b>big</b>" in text and "1.00 dB below big" in text
     record, console = _open(page, tmp_path)
     sources = [src for src, _ in record["images"]]
-    assert "bench/x2/psnr_vs_macs.png" in sources and "stress/plots/camera_cut.png" in sources
-    assert any(src.startswith("stress/crops/camera_cut_") for src in sources) and "size/0/size.png" in sources
+    assert any(src.startswith("stress/crops/camera_cut_") for src in sources)
     assert all(ok for _, ok in record["images"]), record["images"]
+    charts = [chart_id for chart_id, _, _ in record["charts"]]
+    assert "bench-x2-psnr_vs_macs" in charts and "stress-camera_cut" in charts and "size-0-size" in charts
     assert record["errors"] == [] and console == [], (record["errors"], console)
 
     # the same check sees a missing image: it is not a check that always passes
-    (tmp_path / "report" / "bench" / "x2" / "psnr_vs_macs.png").unlink()
+    crop = next(src for src in sources if src.startswith("stress/crops/"))
+    (tmp_path / "report" / crop).unlink()
     record, _ = _open(page, tmp_path)
-    assert dict(record["images"])["bench/x2/psnr_vs_macs.png"] is False
+    assert dict(record["images"])[crop] is False
     assert record["errors"]
+
+
+# two labels drawn at nearly the same place: what the overlap check must catch
+OVERLAPPING_CHART = """<div class=chart id=overlap-check><svg width="200" height="100" xmlns="http://www.w3.org/2000/svg">
+<text x="20" y="50" style="font: 12px 'DejaVu Sans'">ntaau_x2</text>
+<text x="30" y="54" style="font: 12px 'DejaVu Sans'">ntaau_x2_fast</text></svg></div>"""
+
+
+@needs_chromium
+def test_no_two_chart_labels_overlap_in_chromium(tmp_path):
+    page = build_report(_bench(tmp_path), _stress(tmp_path), tmp_path / "report", sizes=[_size(tmp_path)])
+    record, _ = _open(page, tmp_path)
+    charts = {chart_id: (texts, overlaps) for chart_id, texts, overlaps in record["charts"]}
+    assert len(charts) == 6 + 1 + 1  # the bench's six of x2, one stress scenario, one size ladder
+    for chart_id, (texts, overlaps) in charts.items():
+        assert overlaps == [], f"{chart_id}: overlapping labels {overlaps}"
+    # every model is named once per quality chart, with the baselines in its legend
+    texts = charts["bench-x2-psnr_vs_ms_phone_a"][0]
+    assert all(texts.count(name) == 1 for name, *_ in MODELS) and "taau" in texts and "bicubic" in texts
+    assert {"tiny", "big"} <= set(charts["size-0-size"][0])
+
+    # the same check sees two overlapping labels: it is not a check that always passes
+    record, _ = _open(page, tmp_path, OVERLAPPING_CHART)
+    assert dict((c, o) for c, _, o in record["charts"])["overlap-check"] == [["ntaau_x2", "ntaau_x2_fast"]]
+
+
+def test_verdict_names_the_smallest_model_beating_taau_and_the_best_within_each_budget(tmp_path):
+    page = build_report(_bench(tmp_path), None, tmp_path / "report", budgets_ms=(3.0, 8.0))
+    text = html.unescape(re.sub(r"<[^>]+>", "", page.read_text()))
+    verdict = next(line for line in text.splitlines() if line.startswith("Verdict (x2)."))
+    # int8 records are judged: ntaau_x2_tiny (31.17 dB) falls below TAAU (31.20), ntaau_x2_fast (31.58) beats it
+    assert ("The smallest model that beats TAAU (31.20 dB mean PSNR) is ntaau_x2_fast (int8): 31.58 dB (+0.38 dB) "
+            "at 1429 MACs per output pixel.") in verdict
+    assert ("On phone_a (estimated frame ms at 320x180 output): within 3 ms the best is ntaau_x2_fast (int8), 31.58 dB "
+            "at 2.90 ms; within 8 ms the best is ntaau_x2 (int8), 31.71 dB at 3.10 ms.") in verdict
+    assert "On phone_b (estimated frame ms at 320x180 output): nothing within 3 ms (the cheapest, ntaau_x2_tiny (int8), 7.00 ms)" in verdict
+
+
+def test_report_states_the_estimates_once_and_each_section_not_given(tmp_path):
+    page = build_report(_bench(tmp_path), None, tmp_path / "report")
+    text = html.unescape(re.sub(r"<[^>]+>", "", page.read_text()))
+    assert text.count("estimates from the device profiles") == 1
+    assert "fp32 and int8 rows show the same estimate" in text
+    assert "Not in this report: --stress was not given.  mnss-kit stress (writes bench/results/stress/stress.json) makes it" in text
+    assert "Not in this report: --size was not given." in text and "--bench was not given" not in text
 
 
 def test_report_command_names_a_wrong_file_and_needs_an_input(tmp_path, capsys):
@@ -128,4 +194,6 @@ def test_report_command_names_a_wrong_file_and_needs_an_input(tmp_path, capsys):
     other.write_text('{"format": "something-else", "version": 1}')
     assert main(["report", "--bench", str(other), "--out", str(tmp_path / "r")]) == 2
     assert "other.json: not a bench file" in capsys.readouterr().err
+    assert main(["report", "--bench", str(_bench(tmp_path)), "--budget-ms", "4", "0", "--out", str(tmp_path / "r")]) == 2
+    assert "--budget-ms must be positive, got 4 0" in capsys.readouterr().err
     assert not (tmp_path / "r").exists()
