@@ -84,8 +84,8 @@ def test_report_says_which_steps_did_not_run(tmp_path):
 
 
 class RecordingSteps:
-    def __init__(self, out=None, progress=False):
-        self.calls, self.timings = [], {}
+    def __init__(self, mismatch=None):
+        self.calls, self.timings, self.mismatch = [], {}, mismatch
 
     def run(self, title, done, argv, optional=False):
         self.calls.append(argv)
@@ -95,6 +95,7 @@ class RecordingSteps:
 
     def call(self, title, done, work):
         self.calls.append([title])
+        done.write_text(json.dumps({"mismatch": self.mismatch}))
 
 
 def test_the_chain_measures_int8_and_the_emulator_on_the_held_out_set(tmp_path, monkeypatch):
@@ -112,6 +113,15 @@ def test_the_chain_measures_int8_and_the_emulator_on_the_held_out_set(tmp_path, 
     assert argv["emulate"][argv["emulate"].index("--data") + 1] == test_data and "--frames" not in argv["emulate"]
 
 
+def test_a_bundle_the_emulator_does_not_reproduce_is_not_emulated(tmp_path, monkeypatch):
+    recorded = RecordingSteps(mismatch="frame 0: display")
+    monkeypatch.setattr(demo, "Steps", lambda out, progress: recorded)
+    monkeypatch.setattr(demo, "write_report", lambda out, timings: out / "report.md")
+    demo.run(argparse.Namespace(out=str(tmp_path), minutes=2.0, no_progress=True))
+    assert "emulator on golden frames" in [c[0] for c in recorded.calls]
+    assert "emulate" not in [c[0] for c in recorded.calls]
+
+
 def test_shipped_model_is_evaluated_on_the_held_out_set_when_shipped(tmp_path, monkeypatch):
     steps = RecordingSteps()
     demo.evaluate_shipped(steps, tmp_path / "test", tmp_path / "eval_shipped.json")
@@ -121,3 +131,13 @@ def test_shipped_model_is_evaluated_on_the_held_out_set_when_shipped(tmp_path, m
     steps = RecordingSteps()
     demo.evaluate_shipped(steps, tmp_path / "test", tmp_path / "eval_shipped.json")
     assert steps.calls == []
+
+
+def test_report_names_the_golden_frame_the_emulator_does_not_reproduce(tmp_path):
+    write_eval(tmp_path / "eval.json", {"model": 36.54, "taau": 36.4}, 1058.0)
+    write_int8_and_emulation(tmp_path)
+    check = json.loads((tmp_path / demo.GOLDEN_CHECK).read_text())
+    (tmp_path / demo.GOLDEN_CHECK).write_text(json.dumps(dict(check, mismatch="frame 1: display")))
+    (tmp_path / "emulate" / "metrics.json").unlink()
+    text = demo.write_report(tmp_path, {}).read_text()
+    assert "the emulator did not reproduce them: frame 1: display." in text
