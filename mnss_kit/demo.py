@@ -269,19 +269,33 @@ def method_rows(out: Path) -> list[tuple[str, dict, float | None]]:
 
 
 def quality_cost_chart(rows: list[tuple[str, dict, float | None]], path: Path) -> Path:
+    """PSNR against MACs per output pixel: each network a labelled point (labels placed clear of each
+    other), each baseline a line named in the legend beside the plot."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6, 3.6), dpi=100)
-    for name, m, macs in rows:
-        ax.scatter([macs or 0], [m["psnr"]], label=name)
-    ax.set_xlabel("MACs per output pixel (0 = no network)")
+    from .bench.charts import BASELINE_STYLES, place_labels, save_figure
+
+    networks = [(name, m["psnr"], macs) for name, m, macs in rows if macs is not None]
+    baselines = [(name, m["psnr"]) for name, m, macs in rows if macs is None]
+    fig, ax = plt.subplots(figsize=(7, 3.6), dpi=100)
+    for i, (_, psnr, macs) in enumerate(networks):
+        ax.scatter([macs], [psnr], s=40, color=f"C{i}")
+    for (name, psnr), style in zip(baselines, BASELINE_STYLES * 4):
+        ax.axhline(psnr, color="grey", lw=0.9, ls=style, label=name)
+    ax.set_xlabel("MACs per output pixel")
     ax.set_ylabel(f"PSNR (dB), held-out {TEST_DATA}")
-    ax.legend(fontsize=7)
+    ax.set_xlim(0, max([macs for *_, macs in networks], default=1) * 1.4)
+    ax.margins(y=0.2)
     ax.grid(alpha=0.3)
+    if baselines:
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     fig.tight_layout()
-    fig.savefig(path)
+    points = [(macs, psnr) for _, psnr, macs in networks]
+    place_labels(ax, [(name, xy, f"C{i}") for i, ((name, *_), xy) in enumerate(zip(networks, points))], points,
+                 [psnr for _, psnr in baselines])
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
