@@ -1,6 +1,6 @@
 """Faster, bit-identical convolutions and elementwise ops for the emulator's NPU stage.
 
-``ops.quant.requantize`` is the readable definition of each runtime's
+``ops.int8.requantize.requantize`` is the readable definition of each runtime's
 requantization; under the LiteRT runtimes (Q31 multiplier and shift) it makes
 a dozen int64 passes with divisions, ``np.where`` and modulo, about 190 ns per
 value, which dominates a 720p frame.  :class:`Requantizer` computes the same
@@ -30,7 +30,7 @@ block's int64 accumulators are still in cache (whole-frame int64 passes were mem
 ADD and MUL of two int8 tensors have only 65536 distinct operand pairs: :class:`PairTable`
 evaluates the kernel once on every pair and looks results up (about 10x faster on a 720p
 frame).  That is exact whenever the kernel's result depends on the two values only, which
-holds for every formula except a vector formula (``quant_ops.vector_width``, LiteRT's optimized
+holds for every formula except a vector formula (``ops.int8.vector.vector_width``, LiteRT's optimized
 ADD) on a tensor whose size is not a multiple of its vector width (the tail rounds
 differently); that case keeps the kernel.
 ``tests/emulate/test_frame_loop_fast.py`` asserts equality with the definitions for every
@@ -41,7 +41,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ops import quant, quant_ops
+from ..ops.int8.multiplier import effective_multiplier, quantize_multiplier
+from ..ops.int8.requantize import activation_bounds, requantize
+from ..ops.int8.vector import vector_width
 from ..ops.runtimes import Runtime, get_runtime
 from . import kernels
 
@@ -62,12 +64,12 @@ class Requantizer:
         self.x_q, self.out_q = x_q, out_q
         self.w_scales = np.atleast_1d(np.asarray(w_scales, dtype=np.float32))
         self.runtime = profile = get_runtime(runtime)
-        self.clamp = quant.activation_bounds(activation, out_q[0], out_q[1])
+        self.clamp = activation_bounds(activation, out_q[0], out_q[1])
         self.q31 = profile.multiplier == "q31"
         if not self.q31:
             return
-        real = quant.effective_multiplier(x_q[0], self.w_scales, out_q[0], profile)
-        pairs = [quant.quantize_multiplier(float(r)) for r in real]
+        real = effective_multiplier(x_q[0], self.w_scales, out_q[0], profile)
+        pairs = [quantize_multiplier(float(r)) for r in real]
         shift = np.array([s for _, s in pairs], dtype=np.int64)
         self.multiplier = np.array([m for m, _ in pairs], dtype=np.int64)
         self.left = np.maximum(shift, 0)
@@ -85,7 +87,7 @@ class Requantizer:
     def __call__(self, acc: np.ndarray, fits_int32: bool = False) -> np.ndarray:
         """``acc`` int64 (..., C) (overwritten) -> int8.  ``fits_int32``: every value is known to be an int32."""
         if not self.q31:
-            return quant.requantize(acc, self.x_q[0], self.w_scales, self.out_q[0], self.out_q[1], self.runtime, clamp=self.clamp)
+            return requantize(acc, self.x_q[0], self.w_scales, self.out_q[0], self.out_q[1], self.runtime, clamp=self.clamp)
         x = acc if acc.dtype == np.int64 else acc.astype(np.int64)
         if self.any_left:
             x <<= self.left
@@ -192,5 +194,5 @@ class PairTable:
 
 def pair_table_is_exact(kind: str, runtime: Runtime, size: int) -> bool:
     """True if ``kind`` (ADD or MUL) under ``runtime`` on ``size`` values depends on the operand values only."""
-    width = quant_ops.vector_width(kind, runtime.formula(kind))
+    width = vector_width(kind, runtime.formula(kind))
     return width == 0 or size % width == 0

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import UserError
 from ..export.npu_files import NpuTensor
-from ..ops import quant
+from ..ops.int8.logistic_tanh import LOGISTIC_OUTPUT, TANH_OUTPUT
 from ..ops.runtimes import Runtime
 from . import fast, kernels
 from .npu_graph import NpuGraph, NpuOp
@@ -164,10 +164,10 @@ class NumpyInterpreter:
         return lambda v: kernel(v[0], x_q, rt)
 
     def _prepare_logistic(self, op: NpuOp) -> Step:
-        return self._table(op, kernels.logistic, quant.LOGISTIC_OUTPUT)
+        return self._table(op, kernels.logistic, LOGISTIC_OUTPUT)
 
     def _prepare_tanh(self, op: NpuOp) -> Step:
-        return self._table(op, kernels.tanh, quant.TANH_OUTPUT)
+        return self._table(op, kernels.tanh, TANH_OUTPUT)
 
     def _same_params(self, op: NpuOp) -> tuple[float, int]:
         x_q, out_q = self.qparams(op, op.inputs[0]), self.qparams(op, op.outputs[0])

@@ -3,8 +3,8 @@
 Each kernel reproduces one LiteRT / XNNPACK / ONNX Runtime kernel bit for
 bit under a named runtime (``runtime``; see ``mnss_kit.ops.runtimes``).  The
 arithmetic that differs between runtimes (requantization, ADD, MUL,
-QUANTIZE, tables) is defined once in ``mnss_kit.ops.quant`` and
-``mnss_kit.ops.quant_ops``; this module adds the data movement (im2col,
+QUANTIZE, tables) is defined once in ``mnss_kit.ops.int8``, one module
+per op; this module adds the data movement (im2col,
 windows, padding) and picks the formula the runtime names.
 
 Conventions: activations are ``(N, H, W, C)`` int8 with per-tensor
@@ -25,7 +25,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from mnss_kit.ops import quant, quant_ops
+from mnss_kit.ops.int8 import average_pool, logistic_tanh, vector
+from mnss_kit.ops.int8 import mul as int8_mul
+from mnss_kit.ops.int8 import requantize as int8_requantize
+from mnss_kit.ops.int8 import resize_bilinear as int8_resize
 from mnss_kit.ops.runtimes import Runtime, get_runtime
 
 QParams = tuple[float, int]  # (scale, zero_point) of a per-tensor quantized tensor
@@ -120,8 +123,8 @@ def depthwise_accumulators(x: np.ndarray, x_zero_point: int, weights: np.ndarray
 
 def _requantize(acc: np.ndarray, x_q: QParams, w_scales: np.ndarray, out_q: QParams, activation: str,
                 runtime: Runtime) -> np.ndarray:
-    clamp = quant.activation_bounds(activation, out_q[0], out_q[1])
-    return quant.requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], runtime, clamp=clamp)
+    clamp = int8_requantize.activation_bounds(activation, out_q[0], out_q[1])
+    return int8_requantize.requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], runtime, clamp=clamp)
 
 
 def conv2d(x: np.ndarray, x_q: QParams, weights: np.ndarray, w_scales: np.ndarray, bias: np.ndarray | None,
@@ -156,16 +159,16 @@ def add(a: np.ndarray, a_q: QParams, b: np.ndarray, b_q: QParams, out_q: QParams
         runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """ADD of two int8 tensors of one shape -> int8 (LiteRT's broadcasting paths are not modelled)."""
     rt = get_runtime(runtime)
-    clamp = quant.activation_bounds(activation, out_q[0], out_q[1])
-    return quant_ops.add(a, a_q, b, b_q, out_q, rt.add, clamp=clamp)
+    clamp = int8_requantize.activation_bounds(activation, out_q[0], out_q[1])
+    return vector.add(a, a_q, b, b_q, out_q, rt.add, clamp=clamp)
 
 
 def mul(a: np.ndarray, a_q: QParams, b: np.ndarray, b_q: QParams, out_q: QParams, activation: str = "none",
         runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """MUL of two int8 tensors of one shape -> int8."""
     rt = get_runtime(runtime)
-    clamp = quant.activation_bounds(activation, out_q[0], out_q[1])
-    return quant_ops.mul(a, a_q, b, b_q, out_q, rt.mul, clamp=clamp)
+    clamp = int8_requantize.activation_bounds(activation, out_q[0], out_q[1])
+    return int8_mul.mul(a, a_q, b, b_q, out_q, rt.mul, clamp=clamp)
 
 
 def concatenation(tensors: list[np.ndarray], axis: int = -1) -> np.ndarray:
@@ -176,13 +179,13 @@ def concatenation(tensors: list[np.ndarray], axis: int = -1) -> np.ndarray:
 def logistic(x: np.ndarray, x_q: QParams, runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """LOGISTIC: int8 -> int8 with the fixed output params (1/256, -128)."""
     rt = get_runtime(runtime)
-    return quant_ops.logistic(x, x_q, rt)
+    return logistic_tanh.logistic(x, x_q, rt)
 
 
 def tanh(x: np.ndarray, x_q: QParams, runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """TANH: int8 -> int8 with the fixed output params (1/128, 0)."""
     rt = get_runtime(runtime)
-    return quant_ops.tanh(x, x_q, rt)
+    return logistic_tanh.tanh(x, x_q, rt)
 
 
 def average_pool2d(x: np.ndarray, size: int, stride: int, padding: str = "VALID", activation: str = "none",
@@ -211,8 +214,8 @@ def average_pool2d(x: np.ndarray, size: int, stride: int, padding: str = "VALID"
             tap = xi[:, np.clip(yy, 0, h - 1)][:, :, np.clip(xx, 0, w - 1)]
             total += np.where(valid[None, :, :, None], tap, 0)
             count += valid
-    avg = quant_ops.average_pool_divide(total, count[None, :, :, None], rt.average_pool)
-    lo, hi = quant.activation_bounds(activation, *out_q) if out_q is not None else (-128, 127)
+    avg = average_pool.average_pool_divide(total, count[None, :, :, None], rt.average_pool)
+    lo, hi = int8_requantize.activation_bounds(activation, *out_q) if out_q is not None else (-128, 127)
     return np.clip(avg, lo, hi).astype(np.int8)
 
 
@@ -220,7 +223,7 @@ def resize_bilinear(x: np.ndarray, out_hw: tuple[int, int], half_pixel_centers: 
                     runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """RESIZE_BILINEAR (align_corners False): (N, H, W, C) int8 -> (N, Ho, Wo, C) int8, params kept."""
     rt = get_runtime(runtime)
-    return quant_ops.resize_bilinear(x, out_hw, half_pixel_centers, rt.resize_bilinear)
+    return int8_resize.resize_bilinear(x, out_hw, half_pixel_centers, rt.resize_bilinear)
 
 
 def depth_to_space(x: np.ndarray, block: int) -> np.ndarray:
@@ -248,14 +251,14 @@ def pad(x: np.ndarray, paddings: np.ndarray, zero_point: int) -> np.ndarray:
 
 def quantize(x: np.ndarray, out_q: QParams, runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """QUANTIZE float32 -> int8."""
-    return quant_ops.quantize(x, out_q, runtime)
+    return vector.quantize(x, out_q, runtime)
 
 
 def requantize(x: np.ndarray, x_q: QParams, out_q: QParams, runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """QUANTIZE int8 -> int8 (a change of scale and zero point)."""
-    return quant_ops.requantize_int8(x, x_q, out_q, runtime)
+    return int8_requantize.requantize_int8(x, x_q, out_q, runtime)
 
 
 def dequantize(x: np.ndarray, x_q: QParams, runtime: str | Runtime = "tflite-ref") -> np.ndarray:
     """DEQUANTIZE int8 -> float32."""
-    return quant_ops.dequantize(x, x_q, get_runtime(runtime).dequantize)
+    return vector.dequantize(x, x_q, get_runtime(runtime).dequantize)

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ops import quant as Q
+from ..ops.int8.ranges import qrange
 
 BUFFER_PACKING = "NHWC bytes, 4 per uint32 word, little-endian (byte k of word i is element 4i+k)"
 WORD_BYTES = 4
@@ -96,7 +96,7 @@ def boundary_entry(
     ``tensor``: its name in npu.tflite; ``buffer``: the schedule resource that carries it."""
     if dtype != "int8":
         raise ValueError(f"boundary tensor {tensor} is {dtype}; bundles carry int8 boundary tensors")
-    qmin, qmax = Q.qrange(dtype)
+    qmin, qmax = qrange(dtype)
     s = np.float32(scale)
     count = int(np.prod(shape_nhwc))
     return {

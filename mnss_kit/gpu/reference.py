@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ops import demodulation, fsr2, inpaint, quant, sharpen, subpixel, taau, warp
+from ..ops import demodulation, fsr2, inpaint, sharpen, subpixel, taau, warp
+from ..ops.int8 import quantize as quant
 from ..ops.resample import avgpool
 from .passes import PACKED_GBUFFERS
 from .weights import Conv3x3

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .quant import sigmoid_f32
+from .int8.logistic_tanh import sigmoid_f32
 from .resample import upsample_bilinear
 
 ACTIVATIONS = ("sigmoid", "tanh")  # tanh is clipped to [0, 1]

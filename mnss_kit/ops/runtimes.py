@@ -12,9 +12,8 @@ Every command, file and test names a runtime by its key in :data:`RUNTIMES`:
 
 A :class:`Runtime` is plain data: how to start it (the engine and, for LiteRT, the op
 resolver) and, per int8 op, the one formula it uses.  The formulas are defined once in
-``mnss_kit.ops.quant`` (rounding primitives, requantization, ADD methods, QUANTIZE, tables) and
-``mnss_kit.ops.quant_ops`` (the other ops); those functions read a runtime's fields and never
-branch on its name.  Starting a runtime needs ``ai_edge_litert`` or ``onnxruntime`` and lives in
+``mnss_kit.ops.int8``, one module per op (its docstring maps op to file); those functions read
+a runtime's fields and never branch on its name.  Starting a runtime needs ``ai_edge_litert`` or ``onnxruntime`` and lives in
 ``quantize.runtime`` and ``emulate.npu``, keyed by these names.  Every entry was checked bit for
 bit against its runtime on x86-64 (ai-edge-litert 2.3.0, onnxruntime 1.31) by
 tests/quantize/test_profiles.py and tests/emulate.
@@ -36,9 +35,9 @@ from dataclasses import dataclass
 
 ENGINES = ("litert", "onnxruntime")
 ROUNDINGS = ("away_from_zero", "half_up", "half_even")
-# ADD methods of ops.quant.add; the vector formula tflite_neon16 of ops.quant_ops.add combines two of them
+# ADD methods of ops.int8.add.add; the vector formula tflite_neon16 of ops.int8.vector.add combines two of them
 ADD_METHODS = ("q31_double_round", "q31_single_round_inputs", "xnnpack_fixed_point", "float32_fma")
-# formula names per op (ops.quant_ops); "scalar" means every value by the runtime's own rounding fields
+# formula names per op (ops.int8); "scalar" means every value by the runtime's own rounding fields
 FORMULAS: dict[str, tuple[str, ...]] = {
     "ADD": ADD_METHODS + ("tflite_neon16",),
     "MUL": ("tflite", "xnnpack", "onnxruntime"),
@@ -61,7 +60,7 @@ class Runtime:
     engine, litert_resolver
         ``"litert"`` with an ``OpResolverType`` member name, or ``"onnxruntime"`` (no resolver).
     multiplier, shift_rounding, float_rounding
-        CONV_2D requantization (``ops.quant.requantize``).  ``multiplier`` ``"q31"``: integer
+        CONV_2D requantization (``ops.int8.requantize.requantize``).  ``multiplier`` ``"q31"``: integer
         mantissa and shift (TFLite ``QuantizeMultiplier``), the high multiply then a right shift
         rounded by ``shift_rounding`` (``away_from_zero`` = gemmlowp ``RoundingDivideByPOT``,
         ``half_up`` = ``(x + 2^(n-1)) >> n``).  ``"float32"``: one float32 scale per channel,
@@ -70,7 +69,7 @@ class Runtime:
         DEPTHWISE_CONV_2D requantization.  With ``v > 0`` the first ``C // v * v`` output channels
         use this runtime's CONV_2D rule and the rest the rule of the runtime ``depthwise_tail``.
     quantize_reciprocal, quantize_rounding
-        float32 -> integer (``ops.quant.quantize``): ``x * (1 / scale)`` in float32 instead of
+        float32 -> integer (``ops.int8.quantize.quantize``): ``x * (1 / scale)`` in float32 instead of
         ``x / scale``, and the tie rule.  The GPU pass that packs the NPU input rounds this way.
     table_rounding
         Rounding of the 256-entry LOGISTIC and TANH tables built in float32.

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..ops import quant as Q
+from ..ops.int8.ranges import qrange
 from .graph import Graph
 
 ENCODINGS_VERSION = 1
@@ -24,7 +24,7 @@ def encodings(graph: Graph) -> dict:
     acts = {}
     for name in graph.activations():
         t = graph.tensors[name]
-        qmin, qmax = Q.qrange(t.dtype)
+        qmin, qmax = qrange(t.dtype)
         acts[name] = {
             "dtype": t.dtype,
             "bitwidth": np.dtype(t.dtype).itemsize * 8,

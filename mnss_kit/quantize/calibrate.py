@@ -26,7 +26,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import UserError
-from ..ops import quant as Q
+from ..ops.int8.quantize import choose_qparams, dequantize, quantize
 from .graph import Graph
 
 METHODS = ("minmax", "percentile", "entropy", "mse")
@@ -136,7 +136,7 @@ def mse_range(histogram: tuple[np.ndarray, np.ndarray], observed: tuple[float, f
     """Range ``(a * min, b * max)`` (``a, b`` in [0.2, 1]) minimising the int8 quantization MSE of a histogram.
 
     The error of each candidate quantizes the bin centres with the same
-    parameters the graph would get (:func:`mnss_kit.ops.quant.choose_qparams`).
+    parameters the graph would get (:func:`mnss_kit.ops.int8.quantize.choose_qparams`).
     """
     counts, edges = histogram
     centres = ((edges[:-1] + edges[1:]) / 2).astype(np.float32)
@@ -146,8 +146,8 @@ def mse_range(histogram: tuple[np.ndarray, np.ndarray], observed: tuple[float, f
     for a in fractions if lo < 0 else [1.0]:
         for b in fractions if hi > 0 else [1.0]:
             cand = (lo * a, hi * b)
-            scale, zp = Q.choose_qparams(*cand)
-            err = float(np.sum(counts * (Q.dequantize(Q.quantize(centres, scale, zp), scale, zp) - centres) ** 2))
+            scale, zp = choose_qparams(*cand)
+            err = float(np.sum(counts * (dequantize(quantize(centres, scale, zp), scale, zp) - centres) ** 2))
             if err < best_err:
                 best, best_err = cand, err
     return float(best[0]), float(best[1])

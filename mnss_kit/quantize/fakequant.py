@@ -20,7 +20,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
-from ..ops import quant as Q
+from ..ops.int8.ranges import WEIGHT_MAX, qrange
 from .graph import Graph, conv_pads
 
 
@@ -59,7 +59,7 @@ class GraphModule(nn.Module):
         t = self.graph.tensors[name]
         if not self.fake_quant:
             return x
-        qmin, qmax = Q.qrange(t.dtype)
+        qmin, qmax = qrange(t.dtype)
         return torch.fake_quantize_per_tensor_affine(x, float(t.scale), int(t.zero_point), qmin, qmax)
 
     def quant_weight(self, w: torch.Tensor, axis: int) -> torch.Tensor:
@@ -67,9 +67,9 @@ class GraphModule(nn.Module):
             return w
         dims = [d for d in range(w.ndim) if d != axis]
         bound = w.detach().abs().amax(dim=dims)
-        scales = torch.where(bound > 0, bound / Q.WEIGHT_MAX, torch.ones_like(bound))
+        scales = torch.where(bound > 0, bound / WEIGHT_MAX, torch.ones_like(bound))
         zeros = torch.zeros_like(scales, dtype=torch.int32)
-        return torch.fake_quantize_per_channel_affine(w, scales, zeros, axis, -Q.WEIGHT_MAX, Q.WEIGHT_MAX)
+        return torch.fake_quantize_per_channel_affine(w, scales, zeros, axis, -WEIGHT_MAX, WEIGHT_MAX)
 
     def forward(self, *inputs: torch.Tensor, all_tensors: bool = False):
         g = self.graph

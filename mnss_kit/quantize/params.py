@@ -18,7 +18,9 @@ import copy
 import numpy as np
 
 from ..errors import UserError
-from ..ops import quant as Q
+from ..ops.int8.quantize import choose_qparams, quantize
+from ..ops.int8.ranges import INT32_MAX, qrange
+from ..ops.int8.weights import bias_scales, quantize_bias, quantize_weights_per_channel, quantize_weights_with_scales
 from .graph import FIXED_OUTPUT_PARAMS, KEEPS_INPUT_PARAMS, Graph, Op, Tensor
 
 INT16_FIXED_OUTPUT = {"LOGISTIC": (1.0 / 32768.0, 0), "TANH": (1.0 / 32768.0, 0)}
@@ -86,7 +88,7 @@ def _assign_group(g: Graph, members: list[str], ranges, int16) -> None:
         scale, zp = next(iter(fixed.values()))
         scale = np.float32(scale)
     else:
-        scale, zp = Q.choose_qparams(lo, hi, dtype, symmetric=dtype == "int16")
+        scale, zp = choose_qparams(lo, hi, dtype, symmetric=dtype == "int16")
     for n in members:
         t = g.tensors[n]
         t.dtype, t.scale, t.zero_point = dtype, np.float32(scale), int(zp)
@@ -114,7 +116,7 @@ def _insert_conversions(g: Graph) -> None:
 
 def _conversion(g: Graph, t: Tensor, dtype: str, consumer: Op, ops: list[Op]) -> str:
     name = f"{t.name}.{dtype}"
-    scale, zp = Q.choose_qparams(t.rmin, t.rmax, dtype, symmetric=dtype == "int16")
+    scale, zp = choose_qparams(t.rmin, t.rmax, dtype, symmetric=dtype == "int16")
     g.tensors[name] = Tensor(name=name, shape=t.shape, dtype=dtype, scale=np.float32(scale), zero_point=int(zp), rmin=t.rmin, rmax=t.rmax, channel_order=t.channel_order)
     ops.append(Op("QUANTIZE", [t.name], [name], {}, source=consumer.source))
     return name
@@ -124,25 +126,25 @@ def _quantize_constants(g: Graph, op: Op) -> None:
     if op.kind in ("CONV_2D", "DEPTHWISE_CONV_2D"):
         x, w, b = (g.tensors[n] for n in op.inputs)
         axis = 0 if op.kind == "CONV_2D" else 3
-        _, scales = Q.quantize_weights_per_channel(w.float_data, axis)
+        _, scales = quantize_weights_per_channel(w.float_data, axis)
         scales = _fit_bias(b.float_data, x.scale, scales)
-        w.data = Q.quantize_weights_with_scales(w.float_data, scales, axis)
+        w.data = quantize_weights_with_scales(w.float_data, scales, axis)
         w.dtype, w.scale, w.zero_point, w.axis = "int8", scales, np.zeros(len(scales), np.int64), axis
-        b.data = Q.quantize_bias(b.float_data, x.scale, scales)
-        b.dtype, b.scale, b.zero_point, b.axis = "int32", Q.bias_scales(x.scale, scales), np.zeros(len(scales), np.int64), 0
+        b.data = quantize_bias(b.float_data, x.scale, scales)
+        b.dtype, b.scale, b.zero_point, b.axis = "int32", bias_scales(x.scale, scales), np.zeros(len(scales), np.int64), 0
     elif op.kind in ("ADD", "MUL"):
         c = g.tensors[op.inputs[1]]
         if c.is_constant:
             dtype = g.tensors[op.outputs[0]].dtype
             v = float(c.float_data.reshape(-1)[0])
-            scale, zp = Q.choose_qparams(min(v, 0.0), max(v, 0.0), dtype, symmetric=dtype == "int16")
-            c.data = Q.quantize(c.float_data, scale, zp, dtype)
+            scale, zp = choose_qparams(min(v, 0.0), max(v, 0.0), dtype, symmetric=dtype == "int16")
+            c.data = quantize(c.float_data, scale, zp, dtype)
             c.dtype, c.scale, c.zero_point = dtype, np.float32(scale), int(zp)
 
 
 def _fit_bias(bias: np.ndarray, input_scale: float, scales: np.ndarray) -> np.ndarray:
     """Raise weight scales whose channel's bias would not fit int32 at ``s_in * s_w``."""
-    limit = np.float64(Q.INT32_MAX) * 0.99
+    limit = np.float64(INT32_MAX) * 0.99
     needed = np.abs(bias.astype(np.float64)) / (np.float64(input_scale) * limit)
     return np.maximum(scales, needed.astype(np.float32) * np.float32(1.0001)).astype(np.float32)
 
@@ -152,7 +154,7 @@ def _check_clamp(g: Graph, op: Op) -> None:
     if op.options.get("activation") != "clamp":
         return
     t = g.tensors[op.outputs[0]]
-    qmin, qmax = Q.qrange(t.dtype)
+    qmin, qmax = qrange(t.dtype)
     lo_real = float(t.scale) * (qmin - t.zero_point)
     hi_real = float(t.scale) * (qmax - t.zero_point)
     lo, hi = op.options["clamp"]

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ops import quant as Q
+from ..ops.int8.quantize import dequantize, quantize
 from ..ops.runtimes import DEFAULT_RUNTIME, get_runtime
 from .graph import Graph
 
@@ -21,13 +21,13 @@ def quantize_inputs(graph: Graph, inputs_nchw: list[np.ndarray], runtime: str = 
     for name, x in zip(graph.inputs, inputs_nchw, strict=True):
         t = graph.tensors[name]
         nhwc = np.ascontiguousarray(np.transpose(np.asarray(x, np.float32), (0, 2, 3, 1)))
-        out.append(Q.quantize(nhwc, t.scale, t.zero_point, t.dtype, runtime))
+        out.append(quantize(nhwc, t.scale, t.zero_point, t.dtype, runtime))
     return out
 
 
 def dequantize_tensor(graph: Graph, name: str, q: np.ndarray) -> np.ndarray:
     t = graph.tensors[name]
-    return Q.dequantize(q, t.scale, t.zero_point)
+    return dequantize(q, t.scale, t.zero_point)
 
 
 class TfliteRunner:
