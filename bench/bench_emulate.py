@@ -10,7 +10,7 @@ over the timed frames (the first frame, a reset, is a warm-up and not timed):
   frame with the load average (on a busy shared machine wall time overstates the work);
 * per NPU operator: seconds, and for convolutions the accumulation and requantization split;
 * per GPU pass of the bundle's schedule: process CPU seconds per frame (median);
-* for every convolution, the requantization by the ``ops.quant.requantize`` definition versus the
+* for every convolution, the requantization by the ``ops.int8.requantize.requantize`` definition versus the
   emulator's :class:`~mnss_kit.emulate.fast.Requantizer` (checked equal on the same accumulators).
 
     python bench/bench_emulate.py --out bench/results/emulate.json [--profile tflite-ref] [--frames 6] [--workdir DIR]
@@ -58,7 +58,7 @@ def make_bundle(root: Path, frames: int) -> tuple[Path, Path]:
 def op_profile(emulator, npu_input: np.ndarray) -> list[dict]:
     """One NPU pass op by op: seconds per op (convolutions split into accumulation and requantization)."""
     from mnss_kit.emulate import fast, kernels
-    from mnss_kit.ops import quant
+    from mnss_kit.ops.int8.requantize import activation_bounds, requantize
 
     interp = emulator.npu.interpreter
     graph = interp.graph
@@ -78,8 +78,8 @@ def op_profile(emulator, npu_input: np.ndarray) -> list[dict]:
             acc = kernels.conv_accumulators(inputs[0], x_q[1], w.data, b.data, op.options["stride"], op.options["padding"])
             t1 = time.perf_counter()
             scales = np.broadcast_to(w.scale, (w.shape[0],))
-            clamp = quant.activation_bounds(op.options["activation"], *out.qparams())
-            definition = quant.requantize(acc, x_q[0], scales, *out.qparams(), interp.rt, clamp=clamp)
+            clamp = activation_bounds(op.options["activation"], *out.qparams())
+            definition = requantize(acc, x_q[0], scales, *out.qparams(), interp.rt, clamp=clamp)
             t2 = time.perf_counter()
             requantizer = fast.Requantizer(x_q, scales, out.qparams(), op.options["activation"], interp.rt)
             t3 = time.perf_counter()

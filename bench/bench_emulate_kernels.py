@@ -21,7 +21,7 @@ import numpy as np
 
 from mnss_kit.emulate import kernels
 from mnss_kit.fileio import atomic_write_json
-from mnss_kit.ops import quant
+from mnss_kit.ops.int8.requantize import requantize
 from mnss_kit.ops.runtimes import RUNTIMES
 
 
@@ -62,7 +62,7 @@ def main() -> int:
         dw = median_seconds(lambda: kernels.depthwise_conv2d(x, x_q, dw_weights, w_scales, bias, out_q, runtime=name),
                             args.repeats)
         add = median_seconds(lambda: kernels.add(x, x_q, x, x_q, out_q, runtime=name), args.repeats)
-        requant = median_seconds(lambda: quant.requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], name), args.repeats)
+        requant = median_seconds(lambda: requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], name), args.repeats)
         per_set[name] = {"conv2d_s": conv, "requantize_s": requant, "depthwise3x3_s": dw, "add_s": add,
                          "conv2d_gmac_per_s": macs / conv / 1e9}
     report = {

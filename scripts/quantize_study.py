@@ -187,7 +187,8 @@ def lsb_study(graph, tflite: bytes, samples) -> dict:
     """
     import numpy as np
 
-    from mnss_kit.ops import quant as Q
+    from mnss_kit.ops.int8.conv import conv2d_accumulate
+    from mnss_kit.ops.int8.multiplier import effective_multiplier, quantize_multiplier
     from mnss_kit.quantize.graph import conv_pads, op_graph
     from mnss_kit.quantize.onnx_writer import to_onnx
     from mnss_kit.quantize.runtime import OnnxRunner, TfliteRunner, quantize_inputs
@@ -226,9 +227,9 @@ def lsb_study(graph, tflite: bytes, samples) -> dict:
             if op.kind == "CONV_2D":
                 x, w, bias = (graph.tensors[n] for n in op.inputs[:3])
                 o = graph.tensors[out]
-                acc = Q.conv2d_accumulate(sub_inputs[0], x.zero_point, w.data, bias.data, padding=conv_pads(graph, op))
-                real = Q.effective_multiplier(x.scale, w.scale, o.scale, get_runtime("tflite-ref"))
-                pairs_q31 = [Q.quantize_multiplier(float(r)) for r in real]
+                acc = conv2d_accumulate(sub_inputs[0], x.zero_point, w.data, bias.data, padding=conv_pads(graph, op))
+                real = effective_multiplier(x.scale, w.scale, o.scale, get_runtime("tflite-ref"))
+                pairs_q31 = [quantize_multiplier(float(r)) for r in real]
                 mult = np.array([m * 2.0 ** (sh - 31) for m, sh in pairs_q31])
                 right = np.array([max(-sh, 0) for _, sh in pairs_q31])
                 exact = acc * mult

@@ -1,4 +1,4 @@
-"""The Java int8 quantize / dequantize / pack against golden vectors from ``mnss_kit.ops.quant``.
+"""The Java int8 quantize / dequantize / pack against golden vectors from ``mnss_kit.ops.int8.quantize``.
 
 Vectors per profile and scale: values on and next to rounding ties (where the profiles differ),
 random values over and beyond the representable range, signed zeros, subnormals, huge values
@@ -15,7 +15,7 @@ import json
 import numpy as np
 
 from mnss_kit.gpu.passes import quantize_uniforms
-from mnss_kit.ops import quant
+from mnss_kit.ops.int8.quantize import dequantize, quantize
 from mnss_kit.ops.runtimes import RUNTIMES
 
 PROFILES = tuple(RUNTIMES)
@@ -48,7 +48,7 @@ def make_vectors() -> dict:
         for profile in PROFILES:
             u = quantize_uniforms(s, zp, profile)
             with np.errstate(over="ignore"):  # 3e38 / scale overflows to inf, which saturates
-                q = quant.quantize(x, s, zp, "int8", profile)
+                q = quantize(x, s, zp, "int8", profile)
             out["quantize"].append({
                 "profile": profile,
                 "u_q_scale_bits": bits([u["u_q_scale"]])[0],
@@ -61,7 +61,7 @@ def make_vectors() -> dict:
             })
         codes = np.arange(-128, 128)
         out["dequantize"].append({"scale_bits": bits([s])[0], "zero_point": zp, "q": codes.tolist(),
-                                  "r_bits": bits(quant.dequantize(codes, s, zp))})
+                                  "r_bits": bits(dequantize(codes, s, zp))})
     for n in (1, 3, 4, 5, 96, 1001):
         values = rng.integers(-128, 128, n).astype(np.int8)
         padded = np.concatenate([values, np.zeros(-n % 4, np.int8)])

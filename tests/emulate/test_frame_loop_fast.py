@@ -1,4 +1,4 @@
-"""The emulator's fast requantization equals the definitions in ops.quant / emulate.kernels bit for bit."""
+"""The emulator's fast requantization equals the definitions in ops.int8 / emulate.kernels bit for bit."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from mnss_kit.emulate import fast, kernels
-from mnss_kit.ops import quant
+from mnss_kit.ops.int8.requantize import activation_bounds, requantize
 from mnss_kit.ops.runtimes import RUNTIMES
 
 SEEDS = st.integers(0, 2**32 - 1)
@@ -36,8 +36,8 @@ def random_requantizer_case(seed: int):
 @given(seed=SEEDS)
 def test_requantizer_equals_definition(runtime, seed):
     acc, x_q, w_scales, out_q, activation = random_requantizer_case(seed)
-    clamp = quant.activation_bounds(activation, out_q[0], out_q[1])
-    expected = quant.requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], runtime, clamp=clamp)
+    clamp = activation_bounds(activation, out_q[0], out_q[1])
+    expected = requantize(acc, x_q[0], w_scales, out_q[0], out_q[1], runtime, clamp=clamp)
     got = fast.Requantizer(x_q, w_scales, out_q, activation, runtime)(acc.copy())
     assert got.dtype == np.int8
     np.testing.assert_array_equal(got, expected)
@@ -49,7 +49,7 @@ def test_int32_safe_path_equals_definition_on_small_accumulators(runtime):
     acc = rng.integers(-(2**22), 2**22, size=(4096, 8), dtype=np.int64)
     acc[::97] = 2**21 + np.arange(8) * 2**15  # values with many trailing zero bits: rounding ties
     w_scales = (2.0 ** -np.arange(8)).astype(np.float32)
-    expected = quant.requantize(acc, 0.5, w_scales, 0.25, 3, runtime)
+    expected = requantize(acc, 0.5, w_scales, 0.25, 3, runtime)
     got = fast.Requantizer((0.5, 0), w_scales, (0.25, 3), "none", runtime)(acc.copy(), fits_int32=True)
     np.testing.assert_array_equal(got, expected)
 

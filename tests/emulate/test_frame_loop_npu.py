@@ -16,7 +16,7 @@ import pytest
 from mnss_kit.emulate.npu import open_npu
 from mnss_kit.emulate.npu_graph import read_npu_graph
 from mnss_kit.errors import UserError
-from mnss_kit.ops import quant as Q
+from mnss_kit.ops.int8.weights import bias_scales, quantize_bias, quantize_weights_per_channel
 from mnss_kit.ops.runtimes import runtime_names
 from mnss_kit.quantize.graph import Graph, Op, Tensor
 from mnss_kit.quantize.onnx_writer import to_onnx
@@ -39,11 +39,11 @@ def _conv(tensors, ops, rng, name, x, cout, q, activation, depthwise=False, k=3)
     n, h, w, cin = xt.shape
     shape, axis, fan_in = ((1, k, k, cout), 3, k * k) if depthwise else ((cout, k, k, cin), 0, k * k * cin)
     w_float = (rng.normal(size=shape) * 1.6 / np.sqrt(fan_in)).astype(np.float32)
-    wq, ws = Q.quantize_weights_per_channel(w_float, axis)
+    wq, ws = quantize_weights_per_channel(w_float, axis)
     b_float = (rng.normal(size=cout) * 0.2).astype(np.float32)
     tensors[f"{name}.w"] = Tensor(f"{name}.w", shape, "int8", ws, np.zeros(cout, np.int64), axis, wq, w_float)
-    tensors[f"{name}.b"] = Tensor(f"{name}.b", (cout,), "int32", Q.bias_scales(xt.scale, ws), np.zeros(cout, np.int64), 0,
-                                  Q.quantize_bias(b_float, xt.scale, ws), b_float)
+    tensors[f"{name}.b"] = Tensor(f"{name}.b", (cout,), "int32", bias_scales(xt.scale, ws), np.zeros(cout, np.int64), 0,
+                                  quantize_bias(b_float, xt.scale, ws), b_float)
     tensors[name] = _act(name, (n, h, w, cout), q)
     kind = "DEPTHWISE_CONV_2D" if depthwise else "CONV_2D"
     ops.append(Op(kind, [x, f"{name}.w", f"{name}.b"], [name],

@@ -16,7 +16,7 @@ Two facts of ONNX Runtime 1.31 on x86-64 shape these tests:
   kernels, which saturate on CPUs without VNNI (docs/emulator.md).  The kernel set reproduces
   the fused int8 kernel, which is checked against a session with the flag set, as the
   emulator's backend and the quantize stage's runner set it.
-* AVERAGE_POOL_2D and RESIZE_BILINEAR run as float kernels; their ``ops.quant_ops`` formulas
+* AVERAGE_POOL_2D and RESIZE_BILINEAR run as float kernels; their ``ops.int8`` formulas
   are compared with the backend directly.
 """
 
@@ -30,8 +30,11 @@ from hypothesis import strategies as st
 from mnss_kit.emulate import kernels
 from mnss_kit.emulate.npu import OnnxNpu, open_npu
 from mnss_kit.emulate.npu_graph import read_npu_graph
-from mnss_kit.ops import quant as Q
-from mnss_kit.ops import quant_ops
+from mnss_kit.ops.int8.average_pool import average_pool_divide, average_pool_float
+from mnss_kit.ops.int8.logistic_tanh import LOGISTIC_OUTPUT, TANH_OUTPUT
+from mnss_kit.ops.int8.quantize import choose_qparams
+from mnss_kit.ops.int8.resize_bilinear import resize_bilinear
+from mnss_kit.ops.int8.weights import bias_scales
 from mnss_kit.quantize.graph import Graph, Op, Tensor
 from mnss_kit.quantize.onnx_writer import to_onnx
 from mnss_kit.quantize.tflite_writer import to_tflite
@@ -125,7 +128,7 @@ def conv_case(rng: np.random.Generator, depthwise: bool) -> Case:
     if activation == "none":
         out_q = qp(rng, -6, 1)
     else:  # as the quantizer gives a clamped output: the range starts at 0 (zero point -128)
-        out_q = Q.choose_qparams(0.0, 6.0 if activation == "relu6" else float(np.exp(rng.uniform(-3, 3))))
+        out_q = choose_qparams(0.0, 6.0 if activation == "relu6" else float(np.exp(rng.uniform(-3, 3))))
     w_shape, axis = ((1, k, k, co), 3) if depthwise else ((co, k, k, ci), 0)
     if rng.random() < 0.5:  # tie-prone: s_in * s_w / s_out = small rational / 2^k
         w_scales = (out_q[0] / x.scale * 2.0 ** -rng.integers(5, 12, co) * rng.choice(TIE_RATIOS, co)).astype(np.float32)
@@ -133,7 +136,7 @@ def conv_case(rng: np.random.Generator, depthwise: bool) -> Case:
         w_scales = np.exp(rng.uniform(-9, -3, co)).astype(np.float32)
     wq = rng.integers(-127, 128, size=w_shape).astype(np.int8)
     bias = rng.integers(-4000, 4000, size=co).astype(np.int32)
-    b_scales = Q.bias_scales(x.scale, w_scales)
+    b_scales = bias_scales(x.scale, w_scales)
     w_float = (wq * w_scales.reshape([co if i == axis else 1 for i in range(4)])).astype(np.float32)
     wt = Tensor("w", w_shape, "int8", w_scales, np.zeros(co, np.int64), axis, wq, w_float)
     bt = Tensor("b", (co,), "int32", b_scales, np.zeros(co, np.int64), 0, bias, (bias * b_scales).astype(np.float32))
@@ -206,7 +209,7 @@ def test_mul_formula_is_the_runtime_s():
 def test_logistic_tanh(kind, seed):
     rng = np.random.default_rng(seed)
     x = act("x", (1, 4, 4, 16), qp(rng, -7, 1))
-    y = act("y", x.shape, Q.LOGISTIC_OUTPUT if kind == "LOGISTIC" else Q.TANH_OUTPUT)
+    y = act("y", x.shape, LOGISTIC_OUTPUT if kind == "LOGISTIC" else TANH_OUTPUT)
     case = Case(one_op(kind, [x], ["x"], y), np.arange(-128, 128, dtype=np.int8).reshape(x.shape))  # every input value
     runtime, emulated = case.runtime(), case.emulated()
     if kind == "LOGISTIC":
@@ -238,7 +241,7 @@ def test_requantize_int8(seed):
 
 
 # ---------------------------------------------------------------------------
-# Float kernels: pooling and resize (formulas of ops.quant_ops against the backend)
+# Float kernels: pooling and resize (formulas of ops.int8 against the backend)
 
 
 def pool_case(rng: np.random.Generator, size: int, stride: int, padding: str, shape) -> tuple[Case, tuple, tuple]:
@@ -252,7 +255,7 @@ def pool_case(rng: np.random.Generator, size: int, stride: int, padding: str, sh
 
 def check_pool(case: Case, size: int, stride: int, out_hw, pad) -> None:
     x = case.feed["x"]
-    expected = quant_ops.average_pool_float(x, case.graph.tensors["x"].params(), size, stride, out_hw, pad)
+    expected = average_pool_float(x, case.graph.tensors["x"].params(), size, stride, out_hw, pad)
     assert_same(case.runtime(), expected)
 
 
@@ -285,14 +288,14 @@ def test_resize_bilinear(seed):
     x, y = act("x", shape, q), act("y", (1, *out_hw, shape[3]), q)
     case = Case(one_op("RESIZE_BILINEAR", [x], ["x"], y, dict(size=out_hw, align_corners=False, half_pixel_centers=True)),
                 int8(rng, shape))
-    assert_same(case.runtime(), quant_ops.resize_bilinear(case.feed["x"], out_hw, True, "onnxruntime", q))
+    assert_same(case.runtime(), resize_bilinear(case.feed["x"], out_hw, True, "onnxruntime", q))
 
 
 def test_pool_and_resize_formulas_need_their_inputs():
     with pytest.raises(ValueError, match="float window sums"):
-        quant_ops.average_pool_divide(np.zeros(4, np.int64), np.ones(4, np.int64), "onnxruntime")
+        average_pool_divide(np.zeros(4, np.int64), np.ones(4, np.int64), "onnxruntime")
     with pytest.raises(ValueError, match="quantization params"):
-        quant_ops.resize_bilinear(np.zeros((1, 2, 2, 1), np.int8), (4, 4), True, "onnxruntime")
+        resize_bilinear(np.zeros((1, 2, 2, 1), np.int8), (4, 4), True, "onnxruntime")
 
 
 def test_graph_reader_accepts_the_test_graphs():

@@ -1,4 +1,4 @@
-"""Runtimes are data naming formulas defined once in ops.quant / ops.quant_ops."""
+"""Runtimes are data naming formulas defined once in ops.int8."""
 
 from __future__ import annotations
 
@@ -7,7 +7,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from mnss_kit.ops import quant, quant_ops
+from mnss_kit.ops.int8 import vector as int8_vector
+from mnss_kit.ops.int8.add import add
+from mnss_kit.ops.int8.quantize import quantize
+from mnss_kit.ops.int8.requantize import requantize, requantize_int8
 from mnss_kit.ops.runtimes import ADD_METHODS, FORMULAS, RUNTIMES, get_runtime
 
 
@@ -30,17 +33,17 @@ def test_unknown_formula_is_refused(field, value):
 
 
 def test_scalar_formulas_are_the_ops_quant_definitions():
-    """ADD methods and the scalar QUANTIZE formula are ops.quant's add and quantize under the runtime."""
+    """ADD methods and the scalar QUANTIZE formula are ops.int8's add.add and quantize.quantize under the runtime."""
     rng = np.random.default_rng(0)
     a, b = (rng.integers(-128, 128, size=(1, 5, 7, 3)).astype(np.int8) for _ in range(2))
     qs = [(np.float32(0.02), 5), (np.float32(0.031), -7), (np.float32(0.05), -3)]
     x = (rng.standard_normal((1, 5, 7, 3)) * 2).astype(np.float32)
     for method in ADD_METHODS:
-        expected = quant.add(a, qs[0], b, qs[1], qs[2], method)
-        np.testing.assert_array_equal(quant_ops.add(a, qs[0], b, qs[1], qs[2], method), expected)
+        expected = add(a, qs[0], b, qs[1], qs[2], method)
+        np.testing.assert_array_equal(int8_vector.add(a, qs[0], b, qs[1], qs[2], method), expected)
     for runtime in RUNTIMES.values():
         if runtime.quantize == "scalar":
-            np.testing.assert_array_equal(quant_ops.quantize(x, qs[0], runtime), quant.quantize(x, *qs[0], "int8", runtime))
+            np.testing.assert_array_equal(int8_vector.quantize(x, qs[0], runtime), quantize(x, *qs[0], "int8", runtime))
 
 
 @pytest.mark.parametrize("op", ["ADD", "REQUANTIZE"])
@@ -58,25 +61,25 @@ def test_vector_formulas_split_by_position(op):
     def scalar(part, a, b):  # part: "vector" or "tail"
         if op == "ADD":
             method = "q31_single_round_inputs" if part == "vector" else "q31_double_round"
-            return quant.add(a, q_a, b, q_b, q_out, method)
+            return add(a, q_a, b, q_b, q_out, method)
         rule = "tflite-builtin" if part == "vector" else "tflite-ref"
-        return quant.requantize(a.astype(np.int64) - q_a[1], q_a[0], np.float32(1.0), *q_requantized, rule)
+        return requantize(a.astype(np.int64) - q_a[1], q_a[0], np.float32(1.0), *q_requantized, rule)
 
     def builtin(a, b):
         if op == "ADD":
-            return quant_ops.add(a, q_a, b, q_b, q_out, RUNTIMES["tflite-builtin"].add)
-        return quant_ops.requantize_int8(a, q_a, q_requantized, "tflite-builtin")
+            return int8_vector.add(a, q_a, b, q_b, q_out, RUNTIMES["tflite-builtin"].add)
+        return requantize_int8(a, q_a, q_requantized, "tflite-builtin")
 
     vector, tail_rule = scalar("vector", a, b), scalar("tail", a, b)
     differ = np.flatnonzero(vector != tail_rule)
     assert differ.size > 0, "the test values must tell the two formulas apart"
-    tail = differ[: quant_ops.vector_width(op, RUNTIMES["tflite-builtin"].formula(op)) - 1]
+    tail = differ[: int8_vector.vector_width(op, RUNTIMES["tflite-builtin"].formula(op)) - 1]
     got = builtin(np.concatenate([a, a[tail]]), np.concatenate([b, b[tail]]))
     np.testing.assert_array_equal(got[: a.size], vector)
     np.testing.assert_array_equal(got[a.size:], tail_rule[tail])
 
 
 def test_only_vector_formulas_depend_on_position():
-    assert quant_ops.vector_width("ADD", "tflite_neon16") == 16
-    assert quant_ops.vector_width("ADD", "q31_double_round") == 0
-    assert all(f in FORMULAS[op] for op, f in quant_ops.VECTOR_WIDTHS)
+    assert int8_vector.vector_width("ADD", "tflite_neon16") == 16
+    assert int8_vector.vector_width("ADD", "q31_double_round") == 0
+    assert all(f in FORMULAS[op] for op, f in int8_vector.VECTOR_WIDTHS)

@@ -14,7 +14,7 @@ from mnss_kit.model.families import FAMILIES, build_model, randomise_convs
 from mnss_kit.model.family import example_frame
 from mnss_kit.model.fusesr.config import FuseSRConfig
 from mnss_kit.model.layers import add_upsampled, remodulate
-from mnss_kit.ops import quant
+from mnss_kit.ops.int8.quantize import dequantize, quantize
 
 H, W = 6, 8
 OUT_Q = (1.0 / 255.0, -128)
@@ -63,13 +63,13 @@ def test_schedule_packs_and_remodulates_as_the_torch_model(name):
             model(frame, state)
         inputs = {k: hwc(frame[k]) for k in runner.inputs}
         runner.run_frame(inputs, frame["jitter"][0].numpy(), bool(frame["reset"][0] > 0.5))
-        want = quant.quantize(hwc(packed_inputs[-1]), *input_q, "int8", "tflite-ref")[None]
+        want = quantize(hwc(packed_inputs[-1]), *input_q, "int8", "tflite-ref")[None]
         got = runner.values["npu_input"]
         assert got.shape == want.shape
         # fp16 storage of L and of the encoder features moves a code at most one step
         assert np.abs(got.astype(int) - want.astype(int)).max() <= 1, f"frame {t}"
         assert (got != want).mean() < 0.05, f"frame {t}"
-        residual = torch.from_numpy(quant.dequantize(npu_output[0], *OUT_Q)).permute(2, 0, 1)[None]
+        residual = torch.from_numpy(dequantize(npu_output[0], *OUT_Q)).permute(2, 0, 1)[None]
         l = torch.from_numpy(np.asarray(runner.values["l"], np.float32)[..., :3]).permute(2, 0, 1)[None]  # the GPU's L
         prediction = add_upsampled(residual, l, config.scale)
         if config.demodulate:

@@ -12,7 +12,7 @@ import pytest
 from mnss_kit.gpu import mesa as mesa_module
 from mnss_kit.gpu.glsl import flatten_text
 from mnss_kit.gpu.passes import quantize_uniforms
-from mnss_kit.ops import quant
+from mnss_kit.ops.int8 import quantize as quant
 from mnss_kit.ops.runtimes import RUNTIMES, get_runtime
 
 HALF_BITS_SHADER = """#version 310 es

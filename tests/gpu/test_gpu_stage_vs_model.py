@@ -22,7 +22,7 @@ from mnss_kit.gpu.reference import ReferencePasses, encode_unorm8, to_half
 from mnss_kit.model.mnss.gpu_stage import GpuStage, NpuBoundary, after_npu, before_npu
 from mnss_kit.model.config import load_model_config
 from mnss_kit.model.families import build_model
-from mnss_kit.ops import quant
+from mnss_kit.ops.int8 import quantize as quant
 
 TOLERANCE = {"warped": 5e-4, "rectified": 1e-3, "aa": 2e-3}
 BOUNDARY = NpuBoundary(1 / 255, -128, 1 / 255, -128, "tflite-ref")

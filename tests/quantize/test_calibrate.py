@@ -7,7 +7,7 @@ import torch
 from mnss_kit.model.mnss.config import MNSSConfig
 
 from mnss_kit.errors import UserError
-from mnss_kit.ops import quant as Q
+from mnss_kit.ops.int8.quantize import choose_qparams, dequantize, quantize
 from mnss_kit.quantize.calibrate import InputRecorder, calibrate, mse_range
 from mnss_kit.quantize.api import calibration_samples
 
@@ -55,8 +55,8 @@ def test_mse_range_beats_minmax_on_its_own_objective():
     lo, hi = mse_range((counts.astype(float), edges), (float(x.min()), float(x.max())))
 
     def mse(r):
-        s, z = Q.choose_qparams(*r)
-        return float(np.mean((Q.dequantize(Q.quantize(x, s, z), s, z) - x) ** 2))
+        s, z = choose_qparams(*r)
+        return float(np.mean((dequantize(quantize(x, s, z), s, z) - x) ** 2))
 
     assert mse((lo, hi)) < mse((float(x.min()), float(x.max())))
 

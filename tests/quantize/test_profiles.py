@@ -9,8 +9,11 @@ test can fail) at least one other runtime's formula must not.
 import numpy as np
 import pytest
 
-from mnss_kit.ops import quant as Q
-from mnss_kit.ops import quant_ops
+from mnss_kit.ops.int8 import vector
+from mnss_kit.ops.int8.conv import conv2d_accumulate
+from mnss_kit.ops.int8.logistic_tanh import LOGISTIC_OUTPUT, TANH_OUTPUT, apply_table, lookup_table, sigmoid_f32, tanh_f32
+from mnss_kit.ops.int8.requantize import requantize
+from mnss_kit.ops.int8.weights import bias_scales, quantize_bias, quantize_weights_per_channel
 from mnss_kit.ops.runtimes import RUNTIMES, runtime_names
 from mnss_kit.quantize.graph import Graph, Op, Tensor
 from mnss_kit.quantize.onnx_writer import to_onnx
@@ -34,19 +37,19 @@ def conv_graph(depthwise: bool, seed: int = 0):
     y = act("y", (1, size, size, cout), 0.047, -3)
     w_shape, axis = ((1, 3, 3, cout), 3) if depthwise else ((cout, 3, 3, cin), 0)
     w_float = (rng.normal(size=w_shape) * 0.1).astype(np.float32)
-    wq, ws = Q.quantize_weights_per_channel(w_float, axis)
+    wq, ws = quantize_weights_per_channel(w_float, axis)
     b_float = (rng.normal(size=cout) * 0.3).astype(np.float32)
     w = Tensor("w", w_shape, "int8", ws, np.zeros(cout, np.int64), axis, wq, w_float)
-    b = Tensor("b", (cout,), "int32", Q.bias_scales(x.scale, ws), np.zeros(cout, np.int64), 0, Q.quantize_bias(b_float, x.scale, ws), b_float)
+    b = Tensor("b", (cout,), "int32", bias_scales(x.scale, ws), np.zeros(cout, np.int64), 0, quantize_bias(b_float, x.scale, ws), b_float)
     kind = "DEPTHWISE_CONV_2D" if depthwise else "CONV_2D"
     opts = dict(stride=(1, 1), dilation=(1, 1), padding="SAME", activation="none")
     g = Graph({t.name: t for t in (x, y, w, b)}, [Op(kind, ["x", "w", "b"], ["y"], opts)], ["x"], ["y"])
     g.validate()
     xq = rng.integers(-128, 128, size=x.shape).astype(np.int8)
-    acc = Q.conv2d_accumulate(xq, x.zero_point, wq, b.data, padding=(1, 1, 1, 1), depthwise=depthwise)
+    acc = conv2d_accumulate(xq, x.zero_point, wq, b.data, padding=(1, 1, 1, 1), depthwise=depthwise)
 
     def expected(profile):
-        return Q.requantize(acc, x.scale, ws, y.scale, y.zero_point, profile)
+        return requantize(acc, x.scale, ws, y.scale, y.zero_point, profile)
 
     return g, [xq], expected
 
@@ -59,21 +62,21 @@ def add_graph(seed: int = 0):
     bq = np.tile(np.arange(-128, 128), 256).reshape(b.shape).astype(np.int8)
 
     def expected(formula):
-        return quant_ops.add(aq, a.params(), bq, b.params(), y.params(), formula)
+        return vector.add(aq, a.params(), bq, b.params(), y.params(), formula)
 
     return g, [aq, bq], expected
 
 
 def table_graph(kind: str):
     x = act("x", (1, 16, 16, 1), 0.0312, -100)
-    scale, zp = Q.LOGISTIC_OUTPUT if kind == "LOGISTIC" else Q.TANH_OUTPUT
+    scale, zp = LOGISTIC_OUTPUT if kind == "LOGISTIC" else TANH_OUTPUT
     y = act("y", (1, 16, 16, 1), scale, zp)
     g = Graph({"x": x, "y": y}, [Op(kind, ["x"], ["y"])], ["x"], ["y"])
     xq = np.arange(-128, 128).reshape(x.shape).astype(np.int8)
-    fn = Q.sigmoid_f32 if kind == "LOGISTIC" else Q.tanh_f32
+    fn = sigmoid_f32 if kind == "LOGISTIC" else tanh_f32
 
     def expected(profile):
-        return Q.apply_table(xq, Q.lookup_table(fn, x.params(), y.params(), profile))
+        return apply_table(xq, lookup_table(fn, x.params(), y.params(), profile))
 
     return g, [xq], expected
 
@@ -120,14 +123,14 @@ def test_quantize_op_bit_exact():
     model = to_tflite(g)
     for runtime in runtime_names("litert"):
         got = TfliteRunner(model, runtime).run([x])["y"]
-        np.testing.assert_array_equal(got, quant_ops.quantize(x, (scale, zp), runtime))
+        np.testing.assert_array_equal(got, vector.quantize(x, (scale, zp), runtime))
     node = helper.make_node("QuantizeLinear", ["x", "s", "z"], ["y"])
     graph = helper.make_graph([node], "q", [helper.make_tensor_value_info("x", TensorProto.FLOAT, [1, 1, 20, 20])],
                               [helper.make_tensor_value_info("y", TensorProto.INT8, [1, 1, 20, 20])],
                               initializer=[numpy_helper.from_array(scale, "s"), numpy_helper.from_array(np.int8(zp), "z")])
     m = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 21)], ir_version=10)
     got = OnnxRunner(m).run([x])["y"]
-    expected = quant_ops.quantize(x, (scale, zp), "ort-cpu")
+    expected = vector.quantize(x, (scale, zp), "ort-cpu")
     np.testing.assert_array_equal(got, expected)
-    assert np.any(expected != quant_ops.quantize(x, (scale, zp), "tflite-ref"))
+    assert np.any(expected != vector.quantize(x, (scale, zp), "tflite-ref"))
     onnx.checker.check_model(m)
