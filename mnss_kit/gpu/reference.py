@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..ops import demodulation, fsr2, inpaint, sharpen, subpixel, taau, warp
+from ..ops.sanitize import sanitize_colour, sanitize_motion
 from ..ops.int8 import quantize as quant
 from ..ops.resample import avgpool
 from .passes import PACKED_GBUFFERS
@@ -58,7 +59,7 @@ class ReferencePasses:
         """warp_pass.  history (H,W,3), prev_depth (h,w,1), motion (h,w,2) LR pixels ->
         (I_W (H,W,3) fp16 values, D_W at this frame's sampled sub-pixels (h,w,1) float32, ``ops.warp.OFFSCREEN_DEPTH``
         where the surface was outside the previous frame)."""
-        hr_motion = warp.upsample_motion(np.asarray(motion, np.float32), scale)
+        hr_motion = warp.upsample_motion(sanitize_motion(np.asarray(motion, np.float32)), scale)
         hr_depth = subpixel.jittered_upsample(np.asarray(prev_depth, np.float32), as_jitter(prev_jitter), scale)
         warped = warp.warp_bilinear(to_half(history), hr_motion)
         warped_depth = warp.warp_depth(hr_depth, hr_motion)
@@ -153,7 +154,8 @@ class ReferencePasses:
         """taau_reproject_pass.  history (H,W,4): the previous output (rgb) and its weight (a);
         motion (h,w,2) LR pixels -> (H,W,4) fp16 values: the reprojected YCoCg history and its weight."""
         stored = to_half(history)
-        colour, weight = taau.reprojected_history(stored[..., :3], stored[..., 3:], motion, reset, scale, True, blur_penalty)
+        colour, weight = taau.reprojected_history(stored[..., :3], stored[..., 3:], sanitize_motion(motion), reset, scale,
+                                                   True, blur_penalty)
         return to_half(np.concatenate([colour, weight], axis=-1))
 
     def taau_pack(self, color, reprojected, scale: int, max_weight: float, q_scale: float, q_zero_point: int, profile: str):
@@ -161,7 +163,7 @@ class ReferencePasses:
         history, its weight / ``max_weight`` and the clamp distance pixel-unshuffled, quantized as
         ``ops.quant.quantize`` under ``profile``."""
         r = to_half(reprojected)
-        features = taau.steering_features(to_half(color), r[..., :3], r[..., 3:], scale, max_weight)
+        features = taau.steering_features(sanitize_colour(to_half(color)), r[..., :3], r[..., 3:], scale, max_weight)
         return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]
 
     def taau_accumulate(self, npu_output, color, reprojected, motion, jitter, scale: int, q_scale: float, q_zero_point: int,
@@ -171,9 +173,9 @@ class ReferencePasses:
         (h,w,3), reprojected (H,W,4), motion (h,w,2) -> (history (H,W,4) fp16 values: the uncorrected
         blend and its weight, display (H,W,3) uint8 codes of the corrected output, without the display filter)."""
         raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0, ..., :6]
-        terms = taau.current_terms(to_half(color), as_jitter(jitter), scale, sample_sigma)
+        terms = taau.current_terms(sanitize_colour(to_half(color)), as_jitter(jitter), scale, sample_sigma)
         r = to_half(reprojected)
-        floor = taau.history_floor(motion, scale, history_gain_min, still_motion_px)
+        floor = taau.history_floor(sanitize_motion(motion), scale, history_gain_min, still_motion_px)
         output, history, weight = taau.blend(*terms, r[..., :3], r[..., 3:], prior_weight, max_weight,
                                              taau.steer_from_raw(raw, correction_bound, floor, box_bound=box_bound))
         return to_half(np.concatenate([history, weight], axis=-1)), encode_unorm8(output)
@@ -184,7 +186,7 @@ class ReferencePasses:
         motion (h,w,2) -> display (H,W,3) uint8 codes: the blend through the steered filter (faded by
         ``taau.filter_gain``), plus the correction."""
         raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0]
-        gain = taau.filter_gain(motion, scale, filter_falloff)
+        gain = taau.filter_gain(sanitize_motion(motion), scale, filter_falloff)
         steer = taau.steer_from_raw(raw, correction_bound, 0.0, filter_bound, filter_scale=gain)
         return encode_unorm8(taau.display(to_half(history)[..., :3], steer))
 

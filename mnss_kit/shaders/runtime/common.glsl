@@ -93,3 +93,64 @@ float round_to_half(float x) {
 vec4 round_to_half(vec4 v) {
     return vec4(round_to_half(v.x), round_to_half(v.y), round_to_half(v.z), round_to_half(v.w));
 }
+
+// Input sanitization (ops.sanitize): every read of an engine input (colour, depth, motion) goes
+// through these, so a NaN or Inf in one frame cannot reach the history.  Identity on finite values
+// of the input formats.  NaN and Inf are told apart on the bits: drivers may fold isnan / isinf
+// and x != x away under fast-math, integer tests they keep.
+const float COLOUR_MAX = 65504.0;  // ops.sanitize.COLOUR_MAX, the largest finite fp16
+const float FAR_DEPTH = 1.0;       // ops.sanitize.FAR_DEPTH
+
+bool is_not_finite(float x) {
+    return (floatBitsToUint(x) & 0x7F800000u) == 0x7F800000u;
+}
+
+bool is_nan_bits(float x) {
+    uint bits = floatBitsToUint(x);
+    return (bits & 0x7F800000u) == 0x7F800000u && (bits & 0x007FFFFFu) != 0u;
+}
+
+float sanitize_colour(float x) {
+    if (is_nan_bits(x)) return 0.0;
+    if (is_not_finite(x)) return (floatBitsToUint(x) >> 31) != 0u ? -COLOUR_MAX : COLOUR_MAX;
+    return clamp(x, -COLOUR_MAX, COLOUR_MAX);
+}
+
+vec3 sanitize_colour(vec3 c) {
+    return vec3(sanitize_colour(c.x), sanitize_colour(c.y), sanitize_colour(c.z));
+}
+
+float sanitize_depth(float d) {
+    return is_not_finite(d) ? FAR_DEPTH : d;
+}
+
+float sanitize_motion(float m) {
+    return is_not_finite(m) ? 0.0 : m;
+}
+
+vec2 sanitize_motion(vec2 m) {
+    return vec2(sanitize_motion(m.x), sanitize_motion(m.y));
+}
+
+// The sanitized LR colour (rgb), depth and motion at texel `p`.
+vec3 colour_texel(highp sampler2D color, ivec2 p) {
+    return sanitize_colour(texelFetch(color, p, 0).rgb);
+}
+
+float depth_texel(highp sampler2D depth, ivec2 p) {
+    return sanitize_depth(texelFetch(depth, p, 0).x);
+}
+
+vec2 motion_texel(highp sampler2D motion, ivec2 p) {
+    return sanitize_motion(texelFetch(motion, p, 0).xy);
+}
+
+// bilinear_sample of the sanitized motion (each texel sanitized before the blend).
+vec2 motion_bilinear(highp sampler2D motion, vec2 p) {
+    BilinearTaps t = bilinear_taps(p, textureSize(motion, 0));
+    vec4 a = vec4(motion_texel(motion, t.lo), 0.0, 0.0);
+    vec4 b = vec4(motion_texel(motion, ivec2(t.hi.x, t.lo.y)), 0.0, 0.0);
+    vec4 c = vec4(motion_texel(motion, ivec2(t.lo.x, t.hi.y)), 0.0, 0.0);
+    vec4 d = vec4(motion_texel(motion, t.hi), 0.0, 0.0);
+    return bilinear_blend(a, b, c, d, t.frac).xy;
+}

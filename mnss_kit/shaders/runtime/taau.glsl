@@ -41,7 +41,7 @@ vec3 spatial_at(highp sampler2D color, ivec2 hr, vec2 jitter, int scale) {
         int row = clamp(b.y + a - 1, 0, size.y - 1);
         for (int c = 0; c < 4; c++) {
             int col = clamp(b.x + c - 1, 0, size.x - 1);
-            acc += (wy[a] * wx[c]) * texelFetch(color, ivec2(col, row), 0).rgb;
+            acc += (wy[a] * wx[c]) * colour_texel(color, ivec2(col, row));
         }
     }
     return rgb_to_ycocg(acc);
@@ -71,7 +71,7 @@ Neighbourhood neighbourhood_at(highp sampler2D color, ivec2 hr, vec2 jitter, int
         for (int dx = -1; dx <= 1; dx++) {
             float ex = ((float(lr.x) + 0.5 + float(dx) + jitter.x) * s - centre.x) / sigma;
             float w = wy * exp(-0.5 * ex * ex);
-            vec3 c = rgb_to_ycocg(texelFetch(color, clamp(lr + ivec2(dx, dy), ivec2(0), size - 1), 0).rgb);
+            vec3 c = rgb_to_ycocg(colour_texel(color, clamp(lr + ivec2(dx, dy), ivec2(0), size - 1)));
             acc += w * c;
             total += w;
             n.lo = min(n.lo, c);

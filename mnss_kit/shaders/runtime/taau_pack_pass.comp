@@ -31,7 +31,7 @@ const int HR_FEATURES = 5;  // clamped history (3), weight, clamp distance
 
 // Channel `c` of LR texel `p` (the model's ntaau Gather, ops.taau's clamp box).
 float feature(ivec2 p, int c, int scale) {
-    if (c < 3) return texelFetch(color, p, 0)[c];
+    if (c < 3) return colour_texel(color, p)[c];
     c -= 3;
     int s2 = scale * scale;
     int sub = c % s2;
@@ -41,7 +41,7 @@ float feature(ivec2 p, int c, int scale) {
     vec3 hi = vec3(-1e30);
     for (int dy = -1; dy <= 1; dy++) {
         for (int dx = -1; dx <= 1; dx++) {
-            vec3 v = rgb_to_ycocg(texelFetch(color, clamp(p + ivec2(dx, dy), ivec2(0), size - 1), 0).rgb);
+            vec3 v = rgb_to_ycocg(colour_texel(color, clamp(p + ivec2(dx, dy), ivec2(0), size - 1)));
             lo = min(lo, v);
             hi = max(hi, v);
         }

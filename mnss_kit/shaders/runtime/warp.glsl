@@ -5,9 +5,10 @@
 #include "common.glsl"
 
 // HR motion at HR texel `hr`: LR motion resized bilinearly (no jitter: motion is rendered
-// without it), times the scale because motion is in pixels of its own resolution.
+// without it), times the scale because motion is in pixels of its own resolution.  Sanitized
+// (common.glsl's motion_bilinear).
 vec2 upsampled_motion_at(highp sampler2D motion, ivec2 hr, int scale) {
-    return bilinear_sample(motion, (vec2(hr) + 0.5) / float(scale)).xy * float(scale);
+    return motion_bilinear(motion, (vec2(hr) + 0.5) / float(scale)) * float(scale);
 }
 
 // Where HR texel `hr`'s surface was in the previous frame, in HR pixel coordinates.

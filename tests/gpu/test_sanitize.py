@@ -1,0 +1,119 @@
+"""Input sanitization (``ops.sanitize``) in GLSL on Mesa against numpy, bit for bit, on NaN (quiet,
+signalling, negative), +-Inf and finite values; and the ntaau passes, which read the engine's
+colour and motion, on Mesa against their reference with NaN and Inf inputs: finite outputs, the
+same values."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from gpu_helpers import assert_float_close, random_frame
+
+from mnss_kit.gpu.glsl import flatten_text
+from mnss_kit.gpu.reference import to_half
+from mnss_kit.model.taau import TAAUParams
+from mnss_kit.ops.sanitize import sanitize_colour, sanitize_depth, sanitize_motion
+
+SANITIZE_SHADER = """#version 310 es
+precision highp float;
+precision highp int;
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer In { uint xs[]; };
+layout(std430, binding = 1) writeonly buffer Out { uint ys[]; };
+uniform int u_count;
+uniform int u_kind;
+#include "common.glsl"
+void main() {
+    int i = int(gl_GlobalInvocationID.x);
+    if (i < u_count) {
+        float x = uintBitsToFloat(xs[i]);
+        float y = u_kind == 0 ? sanitize_colour(x) : (u_kind == 1 ? sanitize_depth(x) : sanitize_motion(x));
+        ys[i] = floatBitsToUint(y);
+    }
+}
+"""
+KINDS = {"colour": (0, sanitize_colour), "depth": (1, sanitize_depth), "motion": (2, sanitize_motion)}
+H, W = 5, 7
+PARAMS = TAAUParams()
+TOLERANCE = 2e-3  # as test_taau_passes: exp and tanh differ between drivers by a few ULP
+
+
+def probes() -> np.ndarray:
+    """NaNs (quiet, signalling, negative, payloads), +-Inf, every finite fp16, float32 values beyond
+    fp16's range, zeros, subnormals and random bit patterns (as float32)."""
+    nans = np.array([0x7FC00000, 0xFFC00000, 0x7F800001, 0xFF800001, 0x7FFFFFFF, 0x7FA00000], np.uint32).view(np.float32)
+    special = np.array([np.inf, -np.inf, 0.0, -0.0, 65504, 65505, 1e30, -1e30, 1e-40, 1.0, 0.5], np.float32)
+    halves = np.arange(1 << 16, dtype=np.uint32).astype(np.uint16).view(np.float16).astype(np.float32)
+    bits = np.random.default_rng(0).integers(0, 1 << 32, 20000, dtype=np.uint64).astype(np.uint32).view(np.float32)
+    return np.concatenate([nans, special, halves, bits])
+
+
+@pytest.mark.parametrize("kind", list(KINDS))
+def test_glsl_sanitize_matches_numpy_bit_for_bit(mesa, kind):
+    code, reference = KINDS[kind]
+    xs = probes()
+    prog = mesa.compile(flatten_text(SANITIZE_SHADER))
+    out, inputs = mesa.ctx.buffer(reserve=4 * len(xs)), mesa.ctx.buffer(xs.view(np.uint32).tobytes())
+    inputs.bind_to_storage_buffer(0)
+    out.bind_to_storage_buffer(1)
+    prog["u_count"].value = len(xs)
+    prog["u_kind"].value = code
+    prog.run(-(-len(xs) // 64))
+    mesa.ctx.finish()
+    got = np.frombuffer(out.read(), np.uint32)
+    want = reference(xs).view(np.uint32)
+    bad = np.flatnonzero(got != want)
+    assert bad.size == 0, f"{bad.size} mismatches, e.g. {xs[bad[:5]]} -> {got[bad[:5]].view(np.float32)}"
+    finite = np.isfinite(xs) & (np.abs(xs) <= 65504)
+    assert np.array_equal(got[finite], xs[finite].view(np.uint32))  # identity on finite values in range
+
+
+def test_sanitize_is_identity_on_finite_inputs():
+    xs = probes()
+    for _, reference in KINDS.values():
+        finite = np.isfinite(xs) & (np.abs(xs) <= 65504)
+        assert np.array_equal(reference(xs)[finite].view(np.uint32), xs[finite].view(np.uint32))
+    assert np.all(np.isfinite(sanitize_colour(xs))) and np.all(np.isfinite(sanitize_motion(xs)))
+    assert np.all(sanitize_depth(xs)[~np.isfinite(xs)] == 1.0)
+
+
+def _bad_frame(scale):
+    rng = np.random.default_rng(3 * scale)
+    f = random_frame(rng, H, W, scale)
+    color, motion = f["color"].copy(), f["motion"].copy()
+    color[1:3, 2:4] = np.nan
+    color[0, 0] = np.inf
+    color[4, 6, 1] = -np.inf
+    motion[2:4, 1:3] = np.nan
+    motion[0, 6] = (np.inf, -np.inf)
+    colour = rng.random((H * scale, W * scale, 3), dtype=np.float32)
+    weight = rng.uniform(0, PARAMS.max_weight, (H * scale, W * scale, 1)).astype(np.float32)
+    return color, motion, to_half(np.concatenate([colour, weight], axis=-1))
+
+
+@pytest.mark.parametrize("scale", [2, 3])
+def test_taau_passes_sanitize_their_inputs(mesa, ref, scale):
+    color, motion, history = _bad_frame(scale)
+    reprojected = [p.taau_reproject(history, motion, scale, False, PARAMS.blur_penalty) for p in (mesa, ref)]
+    assert np.all(np.isfinite(reprojected[0]))
+    assert_float_close(*reprojected, TOLERANCE)
+    args = (color, reprojected[1], scale, PARAMS.max_weight, 1.0 / 200.0, -20, "tflite-ref")
+    got, want = mesa.taau_pack(*args), ref.taau_pack(*args)
+    assert np.abs(got.astype(int) - want.astype(int)).max() <= 1
+    steering = np.random.default_rng(scale).integers(-128, 128, (1, H * scale, W * scale, 8)).astype(np.int8)
+    args = (steering, color, reprojected[1], motion, (0.25, -0.25), scale, 0.02, 3, 0.1, 1.5, 0.75, 2.0,
+            PARAMS.sample_sigma, PARAMS.prior_weight, PARAMS.max_weight)
+    (history_out, display), (want_history, want_display) = mesa.taau_accumulate(*args), ref.taau_accumulate(*args)
+    assert np.all(np.isfinite(history_out)) and np.all(np.isfinite(want_history))
+    # next to a saturated (+-65504) sample the blend cancels terms of that size: the float order of
+    # the sums decides the last bits there, so those HR texels are held to finiteness only
+    far = np.ones((H, W), bool)
+    for y, x in np.argwhere(np.isinf(color).any(axis=-1)):
+        far[max(y - 2, 0):y + 3, max(x - 2, 0):x + 3] = False
+    far = np.repeat(np.repeat(far, scale, axis=0), scale, axis=1)
+    assert far.sum() > far.size // 3
+    assert_float_close(history_out[far], want_history[far], TOLERANCE)
+    assert np.abs(display[far].astype(int) - want_display[far].astype(int)).max() <= 1
+    args = (steering, want_history, motion, scale, 0.02, 3, 0.1, 0.5, 0.75)
+    got, want = mesa.taau_filter(*args), ref.taau_filter(*args)
+    assert np.abs(got.astype(int) - want.astype(int)).max() <= 1
