@@ -36,6 +36,22 @@ import torch
 import torch.nn.functional as F
 
 from .layers import offscreen, upsample_motion, warp_bilinear
+from ..ops.sanitize import COLOUR_MAX, FAR_DEPTH
+
+
+def sanitize_colour(color: torch.Tensor) -> torch.Tensor:
+    """``ops.sanitize.sanitize_colour`` in torch: NaN -> 0, clamped to +-COLOUR_MAX (Inf included)."""
+    return torch.nan_to_num(color, nan=0.0, posinf=COLOUR_MAX, neginf=-COLOUR_MAX).clamp(-COLOUR_MAX, COLOUR_MAX)
+
+
+def sanitize_depth(depth: torch.Tensor) -> torch.Tensor:
+    """``ops.sanitize.sanitize_depth`` in torch: NaN and +-Inf -> FAR_DEPTH."""
+    return torch.where(torch.isfinite(depth), depth, torch.full_like(depth, FAR_DEPTH))
+
+
+def sanitize_motion(motion: torch.Tensor) -> torch.Tensor:
+    """``ops.sanitize.sanitize_motion`` in torch: NaN and +-Inf -> 0."""
+    return torch.where(torch.isfinite(motion), motion, torch.zeros_like(motion))
 
 
 @dataclass(frozen=True)
@@ -139,7 +155,9 @@ def nearest_up(x: torch.Tensor, s: int) -> torch.Tensor:
 
 def bicubic_upsample(color: torch.Tensor, jitter: torch.Tensor, scale: int) -> torch.Tensor:
     """Jitter-aware bicubic (A = -0.75, clamp-to-edge), not clamped: each LR sample placed where it
-    was shaded (pixel centre + jitter).  ``(N, C, h, w)``, ``(N, 2)`` -> ``(N, C, h*s, w*s)``."""
+    was shaded (pixel centre + jitter).  ``(N, C, h, w)``, ``(N, 2)`` -> ``(N, C, h*s, w*s)``.  The
+    colour is sanitized first (NaN / Inf in an input frame: the bicubic baseline costs one frame)."""
+    color = sanitize_colour(color)
     n, _, h, w = color.shape
     s = scale
     # HR pixel centres in LR pixel units; the LR texel grid is shifted by the jitter.
@@ -241,7 +259,9 @@ class TAAUInputs:
 
 def taau_inputs(color: torch.Tensor, jitter: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor, state: dict | None,
                 scale: int, params: TAAUParams) -> TAAUInputs:
-    """The blend's inputs for LR ``color`` (N,3,h,w) RGB; ``state`` None: no history."""
+    """The blend's inputs for LR ``color`` (N,3,h,w) RGB; ``state`` None: no history.  Colour and
+    motion are sanitized (``ops.sanitize``): a NaN or Inf in one input frame never reaches the history."""
+    color, motion = sanitize_colour(color), sanitize_motion(motion)
     current = rgb_to_ycocg(color)
     samples, sample_weight = nearby_samples(current, jitter, scale, params.sample_sigma)
     spatial = rgb_to_ycocg(bicubic_upsample(color, jitter, scale))

@@ -40,7 +40,8 @@ from torch import nn
 
 from ..blocks import conv_stack
 from ..family import check_frame
-from ..taau import TAAUInputs, TAAUParams, blend, filter_gain, history_floor, steer_from_raw, taau_inputs
+from ..taau import (TAAUInputs, TAAUParams, blend, filter_gain, history_floor, sanitize_colour, sanitize_motion,
+                    steer_from_raw, taau_inputs)
 from .config import NTAAUConfig
 
 STAGE_ORDER = ("taau_gather", "steer", "taau_accumulate")
@@ -123,7 +124,8 @@ class NTAAU(nn.Module):
         """One frame: color (N,3,h,w), motion (N,2,h,w), jitter (N,2), optional reset (N,).
         Returns output (N,3,H,W), aux {taau: the unsteered blend of the same inputs}, next state."""
         check_frame(frame, FRAME_SHAPES, self.scale, "ntaau")
-        color, motion, jitter = frame["color"], frame["motion"], frame["jitter"]
+        # one bad frame costs one frame: NaN / Inf inputs never reach the history (ops.sanitize)
+        color, motion, jitter = sanitize_colour(frame["color"]), sanitize_motion(frame["motion"]), frame["jitter"]
         n = color.shape[0]
         reset = frame.get("reset")
         reset = color.new_zeros(n) if reset is None else reset.to(color)
