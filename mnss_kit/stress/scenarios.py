@@ -3,7 +3,8 @@
 A scenario's ``events`` are the times (seconds) after which recovery is measured besides the
 camera cuts the data flags: the end of a fast pan, where new content has entered the view.
 Cases the renderer cannot express are listed in :data:`NOT_COVERED` with the reason, so every
-report names them instead of leaving them out.
+report names them instead of leaving them out.  :data:`FAULTS` are bad input frames (NaN colour,
+Inf depth) applied in memory to a clean scenario's sequence.
 """
 
 from __future__ import annotations
@@ -41,6 +42,55 @@ NOT_COVERED = {
     "alpha_blended_transparency": "alpha-blended transparent surfaces: the renderer skips blended surfaces "
                                   "(only additive particles are drawn)",
 }
+
+
+@dataclass(frozen=True)
+class Fault:
+    """A bad input frame the renderer cannot produce: ``buffer`` (``color`` or ``depth``) of frame
+    ``frame`` of scenario ``source``'s sequence is set to ``value`` on ``region`` (x0, y0, x1, y1 as
+    fractions of the LR frame) after loading, as a shader bug or a sky at infinite depth would write
+    it.  (The loader refuses NaN / Inf in files, so the fault is applied in memory.)  Measured: the
+    frames after the bad one until every method's PSNR is back within 0.5 dB of the clean run of
+    ``source`` (one bad frame must cost one frame: at most 2), and no NaN output on any frame."""
+    name: str
+    case: str
+    source: str
+    buffer: str
+    value: float
+    frame: int
+    region: tuple[float, float, float, float]
+
+
+FAULTS = (
+    Fault("nan_frame", "one frame of NaN pixels in the LR colour (a shader bug): it must not persist in the history",
+          source="fast_objects", buffer="color", value=float("nan"), frame=8, region=(0.3, 0.3, 0.6, 0.6)),
+    Fault("inf_depth", "one frame of +Inf LR depth on the top third (a sky at infinite depth)",
+          source="fast_objects", buffer="depth", value=float("inf"), frame=8, region=(0.0, 0.0, 1.0, 0.34)),
+)
+MAX_RECOVERY_FRAMES = 2  # a bad frame costs itself and at most this many frames after it
+
+
+def corrupt(frame: dict, fault: Fault) -> dict:
+    """A copy of the loader's frame dict (tensors (1, C, h, w)) with ``fault`` applied."""
+    out = dict(frame)
+    image = frame[fault.buffer].clone()
+    h, w = image.shape[-2:]
+    x0, y0, x1, y1 = fault.region
+    image[..., int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)] = fault.value
+    out[fault.buffer] = image
+    return out
+
+
+def fault_method(method, fault: Fault):
+    """``method`` seeing ``fault`` on its input frame ``fault.frame`` (frames counted from its first call)."""
+
+    def run(frame: dict, state):
+        t, inner = (0, None) if state is None else state
+        seen = corrupt(frame, fault) if t == fault.frame and fault.buffer in frame else frame
+        output, aux, inner = method(seen, inner)
+        return output, aux, (t + 1, inner)
+
+    return run
 
 
 def scenario(name: str) -> Scenario | None:

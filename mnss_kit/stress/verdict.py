@@ -104,6 +104,18 @@ def markdown(doc: dict) -> str:
                 losses = losses_to(doc, m, b)
                 lines.append(f"- {m} is below {label} in: " + ("; ".join(losses) if losses else "no scenario "
                                                                "(PSNR, IF-SSIM and disocclusion PSNR)"))
+    if doc.get("faults"):
+        lines += ["", "## Bad input frames", "",
+                  f"One corrupted input frame; frames after it until PSNR stays within {doc['settings']['recovery_tolerance_db']} dB "
+                  "of the clean run (pass: at most the fault's limit, and no NaN / Inf output).", "",
+                  "| fault | method | frames to recover | finite outputs | PSNR clean / faulty (bad frame, +1, +2) | pass |",
+                  "|---|---|---|---|---|---|"]
+        for name, entry in doc["faults"].items():
+            for m, s in entry["methods"].items():
+                rec = "never" if s["frames_to_recover"] is None else str(s["frames_to_recover"])
+                pairs = ", ".join(f"{a:.2f} / {b:.2f}" for a, b in zip(s.get("clean_psnr", [])[:3], s.get("fault_psnr", [])[:3]))
+                lines.append(f"| {name} | {m} | {rec} | {'yes' if s['finite'] else 'no'} | {pairs or s.get('error', '-')} | "
+                             f"{'yes' if s['passed'] else 'NO'} |")
     lines += ["", "## Not covered", ""]
     lines += [f"- {name}: {reason}" for name, reason in doc["not_covered"].items()] or ["- none"]
     return "\n".join(lines) + "\n"
