@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..ops import demodulation, fsr2, inpaint, sharpen, subpixel, taau, warp
-from ..ops.sanitize import sanitize_colour, sanitize_motion
+from ..ops.sanitize import sanitize_colour, sanitize_depth, sanitize_motion
 from ..ops.int8 import quantize as quant
 from ..ops.resample import avgpool
 from .passes import PACKED_GBUFFERS
@@ -60,7 +60,7 @@ class ReferencePasses:
         (I_W (H,W,3) fp16 values, D_W at this frame's sampled sub-pixels (h,w,1) float32, ``ops.warp.OFFSCREEN_DEPTH``
         where the surface was outside the previous frame)."""
         hr_motion = warp.upsample_motion(sanitize_motion(np.asarray(motion, np.float32)), scale)
-        hr_depth = subpixel.jittered_upsample(np.asarray(prev_depth, np.float32), as_jitter(prev_jitter), scale)
+        hr_depth = subpixel.jittered_upsample(sanitize_depth(np.asarray(prev_depth, np.float32)), as_jitter(prev_jitter), scale)
         warped = warp.warp_bilinear(to_half(history), hr_motion)
         warped_depth = warp.warp_depth(hr_depth, hr_motion)
         return to_half(warped), subpixel.extract_samples(warped_depth, as_jitter(jitter), scale)
@@ -68,11 +68,12 @@ class ReferencePasses:
     def inpaint_weights(self, color, depth, warped, warped_depth, jitter, scale: int, conv: Conv3x3, activation: str):
         """inpaint_weights_pass -> LR weights (h,w,1) float32 in [0, 1]."""
         past = subpixel.extract_samples(to_half(warped), as_jitter(jitter), scale)
-        return inpaint.lr_weights(to_half(color), depth, past, warped_depth, conv.weight, conv.bias, activation, self.conv)
+        return inpaint.lr_weights(sanitize_colour(to_half(color)), sanitize_depth(depth), past, warped_depth, conv.weight,
+                                  conv.bias, activation, self.conv)
 
     def inpaint_blend(self, color, warped, lr_weight, jitter, scale: int, weight_upsample: str, reset: bool):
         """inpaint_blend_pass -> I_R (H,W,3) fp16 values; I_U on a reset (``warped``, ``lr_weight`` unused)."""
-        upsampled = subpixel.jittered_upsample(to_half(color), as_jitter(jitter), scale)
+        upsampled = subpixel.jittered_upsample(sanitize_colour(to_half(color)), as_jitter(jitter), scale)
         if reset:
             return to_half(upsampled)
         weight = inpaint.weight_map(np.asarray(lr_weight, np.float32), as_jitter(jitter), scale, weight_upsample)
@@ -86,7 +87,7 @@ class ReferencePasses:
         inputs = [avgpool(rectified, scale)]
         if history_at_samples:
             inputs.append(subpixel.extract_samples(rectified, as_jitter(jitter), scale))
-        return to_half(np.concatenate([*inputs, to_half(color)], axis=-1))
+        return to_half(np.concatenate([*inputs, sanitize_colour(to_half(color))], axis=-1))
 
     def conv3x3(self, x, conv: Conv3x3, epilogue: str, residual=None):
         """conv3x3_pass: (h,w,Cin) -> (h,w,Cout) fp16 values.  ``epilogue``: none, relu, or
@@ -95,7 +96,7 @@ class ReferencePasses:
         if epilogue == "relu":
             acc = np.maximum(acc, np.float32(0))
         elif epilogue == "residual_clamp":
-            acc = np.clip(to_half(residual) + acc, np.float32(0), np.float32(1))
+            acc = np.clip(sanitize_colour(to_half(residual)) + acc, np.float32(0), np.float32(1))
         elif epilogue != "none":
             raise ValueError(f"unknown epilogue {epilogue!r} (one of {', '.join(EPILOGUES)})")
         return to_half(acc)

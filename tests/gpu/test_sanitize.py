@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from gpu_helpers import assert_float_close, random_frame
+from gpu_helpers import assert_float_close, random_conv, random_frame
 
 from mnss_kit.gpu.glsl import flatten_text
 from mnss_kit.gpu.reference import to_half
@@ -128,3 +128,47 @@ def test_taau_passes_sanitize_their_inputs(gl, ref, scale):
     args = (steering, want_history, motion, scale, 0.02, 3, 0.1, 0.5, 0.75)
     got, want = mesa.taau_filter(*args), ref.taau_filter(*args)
     assert np.abs(got.astype(int) - want.astype(int)).max() <= 1
+
+
+@pytest.mark.parametrize("scale", [2, 3])
+def test_mnss_passes_sanitize_their_inputs(gl, ref, scale):
+    """warp (previous depth, motion), inpainting weights and blend, pooling and the AA net's residual
+    (colour, depth) on NaN / Inf inputs: finite, and the reference's values."""
+    mesa = gl
+    rng = np.random.default_rng(17 * scale)
+    f = random_frame(rng, H, W, scale)
+    color, motion, _ = _bad_frame(scale)
+    depth, prev_depth = f["depth"].copy(), f["prev_depth"].copy()
+    depth[:2] = np.inf
+    depth[3, 3] = np.nan
+    prev_depth[:, :2] = np.inf
+    prev_depth[4, 5] = np.nan
+    conv = random_conv(rng, 1, 4)
+    jitter, prev = (0.25, -0.25), (-0.25, 0.25)
+    args = (f["history"], prev_depth, motion, prev, jitter, scale)
+    (warped, warped_depth), got = ref.warp(*args), mesa.warp(*args)
+    assert np.all(np.isfinite(warped)) and np.all(np.isfinite(warped_depth))
+    assert_float_close(got[0], warped)
+    assert_float_close(got[1], warped_depth)
+    w_args = (color, depth, warped, warped_depth, jitter, scale, conv, "sigmoid")
+    lr_weight = ref.inpaint_weights(*w_args)
+    assert np.all(np.isfinite(lr_weight))
+    assert_float_close(mesa.inpaint_weights(*w_args), lr_weight)
+    for reset in (False, True):
+        b_args = (color, warped, lr_weight, jitter, scale, "bilinear", reset)
+        want = ref.inpaint_blend(*b_args)
+        assert np.all(np.isfinite(want))
+        got = mesa.inpaint_blend(*b_args)
+        small = np.abs(want) < 2.0  # elsewhere blends of a +-65504 sample: finite, within 1 %
+        assert_float_close(got[small], want[small])
+        assert np.all(np.isfinite(got)) and np.all(np.abs(got - want)[~small] <= 0.01 * np.abs(want)[~small])
+    want = ref.avgpool(f["history"], color, jitter, scale, True)
+    assert np.all(np.isfinite(want))
+    got = mesa.avgpool(f["history"], color, jitter, scale, True)
+    assert_float_close(got[..., :6], want[..., :6])
+    assert np.array_equal(got[..., 6:], want[..., 6:])  # the sanitized colour, +-65504 included
+    x = to_half(rng.random((H, W, 9), dtype=np.float32))
+    last = random_conv(rng, 3, 9)
+    want = ref.conv3x3(x, last, "residual_clamp", color)
+    assert np.all(np.isfinite(want))
+    assert_float_close(mesa.conv3x3(x, last, "residual_clamp", color), want)

@@ -39,6 +39,7 @@ from ..layers import (
     upsample_motion,
     warp_bilinear,
 )
+from ..taau import sanitize_colour, sanitize_depth, sanitize_motion
 from ...ops.warp import OFFSCREEN_DEPTH
 
 STAGE_ORDER = ("warp", "inpaint", "aa", "insert", "recon", "enhance")
@@ -228,7 +229,9 @@ class MNSS(nn.Module):
         state (still attached to the graph; detach it for truncated backpropagation).
         """
         check_frame(frame, FRAME_SHAPES, self.scale, "mnss")
-        color, depth, motion, jitter = frame["color"], frame["depth"], frame["motion"], frame["jitter"]
+        # one bad frame costs one frame: NaN / Inf inputs never reach the history (ops.sanitize)
+        color, depth, motion = sanitize_colour(frame["color"]), sanitize_depth(frame["depth"]), sanitize_motion(frame["motion"])
+        jitter = frame["jitter"]
         n = color.shape[0]
         reset = frame.get("reset")
         reset = color.new_zeros(n) if reset is None else reset.to(color)

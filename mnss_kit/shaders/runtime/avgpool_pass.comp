@@ -28,7 +28,7 @@ void main() {
         return;
     }
     vec3 pooled = tile_mean(rectified, p, u_scale);
-    vec3 c = texelFetch(color, p, 0).rgb;
+    vec3 c = colour_texel(color, p);
     if (u_history_at_samples == 0) {
         imageStore(aa_input, ivec3(p, 0), round_to_half(vec4(pooled, c.r)));
         imageStore(aa_input, ivec3(p, 1), round_to_half(vec4(c.g, c.b, 0.0, 0.0)));

@@ -154,3 +154,26 @@ vec2 motion_bilinear(highp sampler2D motion, vec2 p) {
     vec4 d = vec4(motion_texel(motion, t.hi), 0.0, 0.0);
     return bilinear_blend(a, b, c, d, t.frac).xy;
 }
+
+vec4 sanitize_colour(vec4 c) {
+    return vec4(sanitize_colour(c.rgb), sanitize_colour(c.a));
+}
+
+// jittered_upsample_at of an engine input, each texel sanitized before the blend: `kind`
+// INPUT_COLOUR (rgb) or INPUT_DEPTH (x).
+const int INPUT_COLOUR = 0;
+const int INPUT_DEPTH = 1;
+
+vec4 input_texel(highp sampler2D lr, ivec2 p, int kind) {
+    vec4 v = texelFetch(lr, p, 0);
+    return kind == INPUT_DEPTH ? vec4(sanitize_depth(v.x), v.yzw) : vec4(sanitize_colour(v.rgb), v.a);
+}
+
+vec4 jittered_upsample_input_at(highp sampler2D lr, ivec2 hr, vec2 jitter, ivec2 subpixel, int scale, int kind) {
+    if (is_sampled(hr, subpixel, scale)) {
+        return input_texel(lr, hr / scale, kind);
+    }
+    BilinearTaps t = bilinear_taps((vec2(hr) + 0.5) / float(scale) - jitter, textureSize(lr, 0));
+    return bilinear_blend(input_texel(lr, t.lo, kind), input_texel(lr, ivec2(t.hi.x, t.lo.y), kind),
+                          input_texel(lr, ivec2(t.lo.x, t.hi.y), kind), input_texel(lr, t.hi, kind), t.frac);
+}

@@ -33,6 +33,6 @@ void main() {
         return;
     }
     vec4 acc = conv3x3_at(x, id.xy, id.z, u_in_layers, u_out_layers);
-    vec4 res = u_epilogue == EPILOGUE_RESIDUAL_CLAMP ? texelFetch(residual, id.xy, 0) : vec4(0.0);
+    vec4 res = u_epilogue == EPILOGUE_RESIDUAL_CLAMP ? sanitize_colour(texelFetch(residual, id.xy, 0)) : vec4(0.0);
     imageStore(y, id, round_to_half(conv3x3_epilogue(acc, u_epilogue, res)));
 }

@@ -29,7 +29,7 @@ void main() {
     if (any(greaterThanEqual(hr, imageSize(rectified)))) {
         return;
     }
-    vec3 upsampled = jittered_upsample_at(color, hr, u_jitter, u_subpixel, u_scale).rgb;
+    vec3 upsampled = jittered_upsample_input_at(color, hr, u_jitter, u_subpixel, u_scale, INPUT_COLOUR).rgb;
     vec3 result = upsampled;
     if (u_reset == 0) {
         float weight = inpaint_weight_map(lr_weight, hr, u_jitter, u_scale, u_weight_upsample);

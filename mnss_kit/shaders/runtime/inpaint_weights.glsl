@@ -13,7 +13,7 @@ vec4 inpaint_difference(highp sampler2D color, highp sampler2D depth, highp samp
                         highp sampler2D warped_depth, ivec2 p, ivec2 subpixel, int scale) {
     vec3 past = texelFetch(warped, p * scale + subpixel, 0).rgb;
     float past_depth = texelFetch(warped_depth, p, 0).x;
-    return vec4(abs(texelFetch(color, p, 0).rgb - past), abs(texelFetch(depth, p, 0).x - past_depth));
+    return vec4(abs(colour_texel(color, p) - past), abs(depth_texel(depth, p) - past_depth));
 }
 
 // LR weight in [0, 1] at LR texel `p` (1 = take the current frame, 0 = keep the history).

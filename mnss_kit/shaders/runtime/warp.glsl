@@ -36,9 +36,9 @@ float warp_depth(highp sampler2D prev_depth, vec2 source, ivec2 hr_size, vec2 pr
         return OFFSCREEN_DEPTH;
     }
     BilinearTaps t = bilinear_taps(source, hr_size);
-    float a = jittered_upsample_at(prev_depth, t.lo, prev_jitter, prev_subpixel, scale).x;
-    float b = jittered_upsample_at(prev_depth, ivec2(t.hi.x, t.lo.y), prev_jitter, prev_subpixel, scale).x;
-    float c = jittered_upsample_at(prev_depth, ivec2(t.lo.x, t.hi.y), prev_jitter, prev_subpixel, scale).x;
-    float d = jittered_upsample_at(prev_depth, t.hi, prev_jitter, prev_subpixel, scale).x;
+    float a = jittered_upsample_input_at(prev_depth, t.lo, prev_jitter, prev_subpixel, scale, INPUT_DEPTH).x;
+    float b = jittered_upsample_input_at(prev_depth, ivec2(t.hi.x, t.lo.y), prev_jitter, prev_subpixel, scale, INPUT_DEPTH).x;
+    float c = jittered_upsample_input_at(prev_depth, ivec2(t.lo.x, t.hi.y), prev_jitter, prev_subpixel, scale, INPUT_DEPTH).x;
+    float d = jittered_upsample_input_at(prev_depth, t.hi, prev_jitter, prev_subpixel, scale, INPUT_DEPTH).x;
     return bilinear_blend(vec4(a), vec4(b), vec4(c), vec4(d), t.frac).x;
 }
