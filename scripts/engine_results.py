@@ -126,25 +126,33 @@ def stress_data() -> Path:
 
 
 def below_lines(doc: dict) -> list[str]:
-    """Where the default is below TAAU (PSNR, or SSIM / IF-SSIM by more than SSIM_SLACK) or below
-    bicubic's PSNR, per set, reference and sequence."""
+    """Where the default falls below a baseline (``shortfalls``), per set, reference and sequence, and on
+    the stress scenarios."""
     default, lines = doc["labels"][0], []
     for config, reference, entry in entries(doc):
-        found = []
-        for seq, per in entry["sequences"].items():
-            d, t, b = per[default], per["taau"], per["bicubic"]
-            if d["psnr"] < t["psnr"]:
-                found.append(f"{seq} PSNR {d['psnr']:.2f} < TAAU {t['psnr']:.2f}")
-            if d["psnr"] < b["psnr"]:
-                found.append(f"{seq} PSNR {d['psnr']:.2f} < bicubic {b['psnr']:.2f}")
-            for key, name, _ in METRICS[1:]:
-                if d[key] is not None and t[key] is not None and d[key] < t[key] - SSIM_SLACK:
-                    found.append(f"{seq} {name} {d[key]:.4f} < TAAU {t[key]:.4f}")
+        found = [f for seq, per in entry["sequences"].items() for f in shortfalls(seq, per, default)]
         below, total = entry["frames_below_taau"][default]
         lines.append(f"- `{config}` against the {REFERENCES[reference]}: below on "
                      f"{'; '.join(found) if found else 'no sequence'}; PSNR below TAAU on {below} of {total} frames "
                      f"({100.0 * below / max(total, 1):.0f}%)")
+    if "stress" in doc:
+        found = [f for seq, per in doc["stress"]["sequences"].items()
+                 for f in shortfalls(seq, per, default, ("psnr", "disocclusion_psnr"))]
+        lines.append(f"- stress scenarios: below on {'; '.join(found) if found else 'no scenario'}")
     return lines
+
+
+def shortfalls(seq: str, per: dict, default: str, psnr_keys=("psnr",)) -> list[str]:
+    """Where ``default`` is below a baseline on one sequence: PSNR (over the frame, or on the disoccluded
+    pixels) below TAAU, FSR2 or bicubic; SSIM or IF-SSIM below TAAU by more than SSIM_SLACK."""
+    d, out = per[default], []
+    for key in psnr_keys:
+        what = "PSNR" if key == "psnr" else "disoccluded PSNR"
+        out += [f"{seq} {what} {d[key]:.2f} < {base} {per[base][key]:.2f}" for base in BASELINES
+                if d.get(key) is not None and per[base].get(key) is not None and d[key] < per[base][key]]
+    out += [f"{seq} {name} {d[key]:.4f} < taau {per['taau'][key]:.4f}" for key, name, _ in METRICS[1:]
+            if d[key] is not None and per["taau"][key] is not None and d[key] < per["taau"][key] - SSIM_SLACK]
+    return out
 
 
 def entries(doc: dict):
