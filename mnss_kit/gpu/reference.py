@@ -118,8 +118,8 @@ class ReferencePasses:
 
     # -- FuseSR --------------------------------------------------------------------------------
     def demodulate(self, color, fbeta, emissive, demodulate: bool):
-        """demodulate_pass -> (h,w,3) fp16 values: ``ops.demodulation.demodulate``, or the colour."""
-        color = to_half(color)
+        """demodulate_pass -> (h,w,3) fp16 values: ``ops.demodulation.demodulate``, or the colour (sanitized)."""
+        color = sanitize_colour(to_half(color))
         if not demodulate:
             return color
         return to_half(demodulation.demodulate(color, to_half(fbeta), to_half(emissive)))
@@ -137,7 +137,7 @@ class ReferencePasses:
             parts.append(demodulation.pixel_unshuffle(hr, scale))
         for name in (g for g in PACKED_GBUFFERS if g in gbuffers):
             image = gbuffers[name]
-            stored = np.asarray(image, np.float32) if name == "depth" else to_half(image)
+            stored = sanitize_depth(np.asarray(image, np.float32)) if name == "depth" else to_half(image)
             parts.append(demodulation.pixel_unshuffle(stored, scale))
         return quant.quantize(np.concatenate(parts, axis=-1), q_scale, q_zero_point, "int8", profile)[None]
 

@@ -32,6 +32,8 @@ def _nan_colour(frame):
 
 def _inf_depth(frame):
     frame["depth"][..., :8, :] = float("inf")
+    if "hr_depth" in frame:
+        frame["hr_depth"][..., :16, :] = float("inf")
 
 
 def _bad_motion(frame):
@@ -91,6 +93,31 @@ def test_mnss_model_stays_finite_after_one_bad_frame(frames, fault):
     model, _ = load("mnss_x2")
     model.eval()
     _assert_recovers(_run_torch(model, frames), _run_torch(model, _corrupted(frames, fault)))
+
+
+def _with_gbuffers(frames):
+    """fusesr's G-buffers for the synthetic frames: flat materials, the LR depth upsampled nearest."""
+    out = []
+    for frame in frames:
+        frame = dict(frame)
+        n, _, h, w = frame["color"].shape
+        for res, size in (("lr", (h, w)), ("hr", (2 * h, 2 * w))):
+            frame[f"{res}_fbeta"] = torch.full((n, 3, *size), 0.8)
+            frame[f"{res}_emissive"] = torch.zeros(n, 3, *size)
+        frame["hr_normal"] = torch.cat([torch.zeros(n, 2, 2 * h, 2 * w), torch.ones(n, 1, 2 * h, 2 * w)], dim=1)
+        frame["hr_albedo"] = torch.full((n, 3, 2 * h, 2 * w), 0.5)
+        frame["hr_depth"] = frame["depth"].repeat_interleave(2, dim=2).repeat_interleave(2, dim=3)
+        out.append(frame)
+    return out
+
+
+@pytest.mark.parametrize("fault", list(FAULTS))
+def test_fusesr_model_stays_finite_after_one_bad_frame(frames, fault):
+    """fusesr (hybrid: it warps its history by the motion) reads colour, motion and HR depth."""
+    model, _ = load("fusesr_x2_hybrid")
+    model.eval()
+    clean = _with_gbuffers(frames)
+    _assert_recovers(_run_torch(model, clean), _run_torch(model, _corrupted(clean, fault)))
 
 
 def _image(t):

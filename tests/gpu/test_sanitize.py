@@ -172,3 +172,27 @@ def test_mnss_passes_sanitize_their_inputs(gl, ref, scale):
     want = ref.conv3x3(x, last, "residual_clamp", color)
     assert np.all(np.isfinite(want))
     assert_float_close(mesa.conv3x3(x, last, "residual_clamp", color), want)
+
+
+@pytest.mark.parametrize("demodulate", [False, True])
+def test_fusesr_passes_sanitize_their_inputs(gl, ref, demodulate):
+    """demodulate_pass on NaN / Inf colour and gbuffer_pack_pass on NaN / Inf HR depth: finite and
+    the reference's values (the int8 pack bit for bit)."""
+    mesa, scale = gl, 2
+    rng = np.random.default_rng(23)
+    color, _, _ = _bad_frame(scale)
+    fbeta = to_half(rng.uniform(0.05, 1.0, (H, W, 3)).astype(np.float32))
+    emissive = to_half(rng.uniform(0.0, 0.2, (H, W, 3)).astype(np.float32))
+    got, want = mesa.demodulate(color, fbeta, emissive, demodulate), ref.demodulate(color, fbeta, emissive, demodulate)
+    assert np.all(np.isfinite(want)) and np.all(np.isfinite(got))
+    small = np.abs(want) < 2.0
+    assert_float_close(got[small], want[small])
+    depth = rng.uniform(0, 1, (H * scale, W * scale, 1)).astype(np.float32)
+    depth[:4] = np.inf
+    depth[5, 5] = np.nan
+    depth[6, 7] = -np.inf
+    args = (np.zeros((H, W, 3), np.float32), np.zeros((H, W, 1), np.float32), None, {"depth": depth}, scale, False, False,
+            1.0 / 255.0, -128, "tflite-ref")
+    assert np.array_equal(mesa.gbuffer_pack(*args), ref.gbuffer_pack(*args))
+    far = ref.gbuffer_pack(*args[:3], {"depth": np.ones_like(depth)}, *args[4:])
+    assert np.array_equal(ref.gbuffer_pack(*args)[..., 4:].reshape(-1)[:4], far[..., 4:].reshape(-1)[:4])

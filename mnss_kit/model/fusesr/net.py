@@ -25,6 +25,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from ..layers import add_upsampled, demodulate, jittered_upsample, remodulate, upsample_motion, warp_bilinear
+from ..taau import sanitize_colour, sanitize_depth, sanitize_motion
 from ..family import check_frame
 from .config import GBUFFER_CHANNELS, FuseSRConfig
 
@@ -183,7 +184,8 @@ class FuseSR(nn.Module):
         and the next state.
         """
         check_frame(frame, self.required_inputs(), self.scale, "fusesr")
-        color, jitter = frame["color"], frame["jitter"]
+        # one bad frame costs one frame: NaN / Inf inputs never reach the history (ops.sanitize)
+        color, jitter = sanitize_colour(frame["color"]), frame["jitter"]
         n = color.shape[0]
         x = self.demodulate(color, frame["lr_fbeta"], frame["lr_emissive"]) if self.demodulate is not None else color
         hr = []
@@ -193,8 +195,8 @@ class FuseSR(nn.Module):
             if not state:
                 state, reset = self.initial_state(frame), color.new_ones(n)
             cut = (reset > 0.5).view(n, 1, 1, 1)  # a cut history may hold anything, NaN included
-            hr.append(self.warp_history(torch.where(cut, 0.0, state["history"]), frame["motion"]))
-        hr += [frame[f"hr_{g}"] for g in self.config.ordered_gbuffers]
+            hr.append(self.warp_history(torch.where(cut, 0.0, state["history"]), sanitize_motion(frame["motion"])))
+        hr += [sanitize_depth(frame["hr_depth"]) if g == "depth" else frame[f"hr_{g}"] for g in self.config.ordered_gbuffers]
         packed = self.unshuffle([x, self.encode(x)], hr)
         residual = self.backbone(packed)
         fbeta, emissive = (frame["hr_fbeta"], frame["hr_emissive"]) if self.config.demodulate else (None, None)

@@ -27,7 +27,7 @@ void main() {
     if (any(greaterThanEqual(p, textureSize(color, 0)))) {
         return;
     }
-    vec3 c = texelFetch(color, p, 0).rgb;
+    vec3 c = colour_texel(color, p);
     vec3 v = u_demodulate != 0 ? demodulate(c, texelFetch(fbeta, p, 0).rgb, texelFetch(emissive, p, 0).rgb) : c;
     imageStore(l, ivec3(p, 0), round_to_half(vec4(v, 0.0)));
 }

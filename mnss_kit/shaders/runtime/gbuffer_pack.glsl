@@ -20,7 +20,7 @@ int gbuffer_channels(int g) {
 float gbuffer_value(int g, ivec2 hr, int c) {
     if (g == 0) return texelFetch(fbeta, hr, 0)[c];
     if (g == 1) return texelFetch(normal, hr, 0)[c];
-    if (g == 2) return texelFetch(depth, hr, 0).r;
+    if (g == 2) return depth_texel(depth, hr);  // sanitized (common.glsl)
     return texelFetch(albedo, hr, 0)[c];
 }
 
