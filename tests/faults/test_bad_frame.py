@@ -1,7 +1,7 @@
 """One bad frame must cost one frame: a NaN block in the LR colour, +Inf LR depth (a sky at
-infinite depth) or NaN / Inf motion in one frame of a tiny synthetic sequence.  The default model
-(ntaau) in torch and its GPU passes on the numpy reference (the emulator's GPU stage, with neutral
-steering in place of the NPU net) stay finite on every frame; the model is back within 0.5 dB of
+infinite depth) or NaN / Inf motion in one frame of a tiny synthetic sequence.  The shipped models
+of the three families in torch (ntaau, the default; mnss; fusesr with flat G-buffers) and ntaau's GPU passes on the numpy reference (the emulator's GPU stage, with neutral
+steering in place of the NPU net) stay finite on every frame; the models are back within 0.5 dB of
 the clean run at most 2 frames after the bad one.  The unsteered blend of the reference passes
 takes one frame more after a large NaN block (its history weight is not steered down where the
 history disagrees: measured 1.76, 1.01, 0.47 dB below the clean run 1, 2, 3 frames after)."""
