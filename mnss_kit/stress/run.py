@@ -83,7 +83,7 @@ def fault_entry(fault: Fault, clean: list[dict], rows: list[dict] | str, methods
     frame on, the frames after the bad one until the PSNR stays within the tolerance of the clean
     run's (None: never), whether every output was finite, and the verdict (recovered within
     ``MAX_RECOVERY_FRAMES`` with finite outputs)."""
-    entry = {"case": fault.case, "source": fault.source, "buffer": fault.buffer, "value": str(fault.value),
+    entry = {"case": fault.case, "source": fault.source, "buffers": list(fault.buffers), "value": str(fault.value),
              "bad_frame": fault.frame, "max_recovery_frames": MAX_RECOVERY_FRAMES, "methods": {}}
     for m in methods:
         before = [r["psnr"] for r in sorted((r for r in clean if r["method"] == m), key=lambda r: r["frame"])]

@@ -46,16 +46,16 @@ NOT_COVERED = {
 
 @dataclass(frozen=True)
 class Fault:
-    """A bad input frame the renderer cannot produce: ``buffer`` (``color`` or ``depth``) of frame
-    ``frame`` of scenario ``source``'s sequence is set to ``value`` on ``region`` (x0, y0, x1, y1 as
-    fractions of the LR frame) after loading, as a shader bug or a sky at infinite depth would write
+    """A bad input frame the renderer cannot produce: the ``buffers`` (frame keys: ``color``,
+    ``depth``, ``hr_depth``; those a method's frames hold) of frame ``frame`` of scenario ``source``'s
+    sequence are set to ``value`` on ``region`` (x0, y0, x1, y1 as fractions of the frame) after loading, as a shader bug or a sky at infinite depth would write
     it.  (The loader refuses NaN / Inf in files, so the fault is applied in memory.)  Measured: the
     frames after the bad one until every method's PSNR is back within 0.5 dB of the clean run of
     ``source`` (one bad frame must cost one frame: at most 2), and no NaN output on any frame."""
     name: str
     case: str
     source: str
-    buffer: str
+    buffers: tuple[str, ...]
     value: float
     frame: int
     region: tuple[float, float, float, float]
@@ -63,9 +63,10 @@ class Fault:
 
 FAULTS = (
     Fault("nan_frame", "one frame of NaN pixels in the LR colour (a shader bug): it must not persist in the history",
-          source="fast_objects", buffer="color", value=float("nan"), frame=8, region=(0.3, 0.3, 0.6, 0.6)),
-    Fault("inf_depth", "one frame of +Inf LR depth on the top third (a sky at infinite depth)",
-          source="fast_objects", buffer="depth", value=float("inf"), frame=8, region=(0.0, 0.0, 1.0, 0.34)),
+          source="fast_objects", buffers=("color",), value=float("nan"), frame=8, region=(0.3, 0.3, 0.6, 0.6)),
+    Fault("inf_depth", "one frame of +Inf depth (LR, and HR where a method reads it) on the top third (a sky at "
+                       "infinite depth)",
+          source="fast_objects", buffers=("depth", "hr_depth"), value=float("inf"), frame=8, region=(0.0, 0.0, 1.0, 0.34)),
 )
 MAX_RECOVERY_FRAMES = 2  # a bad frame costs itself and at most this many frames after it
 
@@ -73,11 +74,12 @@ MAX_RECOVERY_FRAMES = 2  # a bad frame costs itself and at most this many frames
 def corrupt(frame: dict, fault: Fault) -> dict:
     """A copy of the loader's frame dict (tensors (1, C, h, w)) with ``fault`` applied."""
     out = dict(frame)
-    image = frame[fault.buffer].clone()
-    h, w = image.shape[-2:]
-    x0, y0, x1, y1 = fault.region
-    image[..., int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)] = fault.value
-    out[fault.buffer] = image
+    for key in (k for k in fault.buffers if k in frame):
+        image = frame[key].clone()
+        h, w = image.shape[-2:]
+        x0, y0, x1, y1 = fault.region
+        image[..., int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)] = fault.value
+        out[key] = image
     return out
 
 
@@ -86,7 +88,7 @@ def fault_method(method, fault: Fault):
 
     def run(frame: dict, state):
         t, inner = (0, None) if state is None else state
-        seen = corrupt(frame, fault) if t == fault.frame and fault.buffer in frame else frame
+        seen = corrupt(frame, fault) if t == fault.frame else frame
         output, aux, inner = method(seen, inner)
         return output, aux, (t + 1, inner)
 

@@ -34,6 +34,9 @@ def test_fault_method_corrupts_only_the_bad_frame():
     assert not torch.isnan(frame["color"]).any()  # the loader's frame is not modified
     bad = corrupt(frame, NAN_FRAME)["color"]
     assert torch.isnan(bad).sum() == 3 * 3 * 3 and torch.isnan(bad[..., 3:6, 3:6]).all()
+    sky = corrupt({**frame, "hr_depth": torch.zeros(1, 1, 20, 20)}, next(f for f in FAULTS if f.name == "inf_depth"))
+    assert torch.isinf(sky["depth"][..., :3, :]).all() and torch.isinf(sky["hr_depth"][..., :6, :]).all()
+    assert not torch.isinf(sky["hr_depth"][..., 7:, :]).any() and not torch.isinf(sky["color"]).any()
 
 
 def _rows(method, psnrs):
