@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 HELP = ("stress scenarios (fast pan, cut, disocclusion, thin geometry, particles, light, moire, static, no jitter, "
-        "figures crossing a wall, foliage strafe with a cut)")
+        "figures crossing a wall, foliage strafe with a cut; one frame of NaN colour, one of Inf depth)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
