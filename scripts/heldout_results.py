@@ -84,16 +84,20 @@ def checkpoint_digests(models: list[str]) -> list[str]:
     return [digest(m) for m in models]
 
 
-def read_results(models: list[str], digests: list[str], path: Path = RESULTS, frames: int = FRAMES) -> dict:
-    """The results in ``path`` so far for ``models`` (empty when the file holds other checkpoints or frames)."""
+def read_results(models: list[str], digests: list[str], path: Path | None = None, frames: int = FRAMES) -> dict:
+    """The results in ``path`` (default RESULTS) so far for ``models`` (empty when the file holds other
+    checkpoints or frames)."""
+    path = path or RESULTS
     doc = read_json(path) if path.is_file() else {}
     if doc.get("models") != models or doc.get("digests") != digests or doc.get("frames") != frames:
         doc = {"models": models, "labels": [model_label(m) for m in models], "digests": digests, "frames": frames, "sets": {}}
     return doc
 
 
-def results_lock(path: Path = RESULTS):
-    """Held while the results file is read, changed and written: processes running other sets add to it."""
+def results_lock(path: Path | None = None):
+    """Held while the results file ``path`` (default RESULTS) is read, changed and written: processes
+    running other sets add to it."""
+    path = path or RESULTS
     path.parent.mkdir(parents=True, exist_ok=True)
     return file_lock(path.with_suffix(".lock"))
 
