@@ -223,7 +223,7 @@ ROUNDING_CODES = {"away_from_zero": 0, "half_even": 1, "half_up": 2}
 
 
 def quantize_uniforms(scale: float, zero_point: int, profile) -> dict:
-    """The ``u_q_*`` uniforms of quant.glsl's int8 quantize for ``ops.quant.quantize`` under
+    """The ``u_q_*`` uniforms of quant.glsl's int8 quantize for ``ops.int8.quantize.quantize`` under
     ``profile`` (a runtime name or an ``ops.runtimes.Runtime``): the float32 scale, its float32
     reciprocal (computed here, as the runtime computes it), which of the two the runtime uses,
     the tie rule and the zero point."""

@@ -103,7 +103,7 @@ class ReferencePasses:
 
     def insert_pack(self, rectified, aa, jitter, scale: int, q_scale: float, q_zero_point: int, profile: str):
         """insert_pack_pass -> the int8 NPU input (1,H,W,3): I_AA inserted into I_R, quantized
-        as ``ops.quant.quantize`` under ``profile``."""
+        as ``ops.int8.quantize.quantize`` under ``profile``."""
         image = subpixel.insert_samples(to_half(rectified), to_half(aa), as_jitter(jitter), scale)
         return quant.quantize(image, q_scale, q_zero_point, "int8", profile)[None]
 
@@ -129,7 +129,7 @@ class ReferencePasses:
         """gbuffer_pack_pass -> the int8 NPU input (1,h,w,C): [L, features, with ``history`` the warped
         history (zero on a reset, when ``warped`` is not read and may be None), the HR ``gbuffers`` ({name: (H,W,C)} in ``passes.PACKED_GBUFFERS``
         order, any subset)], HR images pixel-unshuffled (``ops.demodulation.pixel_unshuffle``), quantized as
-        ``ops.quant.quantize`` under ``profile``.  Depth is r32f (float32), the rest fp16."""
+        ``ops.int8.quantize.quantize`` under ``profile``.  Depth is r32f (float32), the rest fp16."""
         parts = [to_half(l)[..., :3], to_half(features)]
         if history:
             h, w = parts[0].shape[:2]
@@ -162,7 +162,7 @@ class ReferencePasses:
     def taau_pack(self, color, reprojected, scale: int, max_weight: float, q_scale: float, q_zero_point: int, profile: str):
         """taau_pack_pass -> the int8 NPU input (1,h,w,3 + 5 s^2): the LR colour, then the clamped
         history, its weight / ``max_weight`` and the clamp distance pixel-unshuffled, quantized as
-        ``ops.quant.quantize`` under ``profile``."""
+        ``ops.int8.quantize.quantize`` under ``profile``."""
         r = to_half(reprojected)
         features = taau.steering_features(sanitize_colour(to_half(color)), r[..., :3], r[..., 3:], scale, max_weight)
         return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]

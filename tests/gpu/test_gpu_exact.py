@@ -116,7 +116,7 @@ def quantized_ties(x: np.ndarray, scale: float, profile) -> int:
 @pytest.mark.parametrize("q_scale, zero_point", QPARAMS)
 def test_pack_every_half_matches_quantize(mesa, ref, profile, q_scale, zero_point):
     """insert_pack over every finite fp16 value (I_R) plus random I_AA: bytes equal to
-    ops.quant.quantize of the inserted image, NHWC."""
+    ops.int8.quantize.quantize of the inserted image, NHWC."""
     values = all_finite_halves()
     scale, w = 2, 256
     hr_h = -(-len(values) // (w * 3))

@@ -1,7 +1,7 @@
 // Insert + pack (MNSS): I_AA written into the rectified history at this frame's sampled
 // sub-pixels, quantized to the int8 NPU input, NHWC (1, H, W, 3), four bytes per 32-bit word
 // (little-endian, so the buffer's bytes are the tensor).  Binding-free; mirrors
-// ops.subpixel.insert_samples and ops.quant.quantize.
+// ops.subpixel.insert_samples and ops.int8.quantize.quantize.
 
 #include "common.glsl"
 #include "quant.glsl"

@@ -1,4 +1,4 @@
-// int8 quantize / dequantize at the GPU <-> NPU boundary, bit for bit as mnss_kit.ops.quant
+// int8 quantize / dequantize at the GPU <-> NPU boundary, bit for bit as mnss_kit.ops.int8.quantize
 // (quantize, dequantize) for every numerics profile.  Binding-free.
 //
 // quantize: q = clamp(round(x / scale) + zero_point, -128, 127), where x / scale is a correctly

@@ -2,7 +2,7 @@ package io.mnsskit.core;
 
 /**
  * int8 quantize / dequantize at the GPU-NPU boundary and the packing of int8 NHWC tensors into
- * 32-bit words, bit for bit as the toolkit ({@code mnss_kit.ops.quant.quantize} and
+ * 32-bit words, bit for bit as the toolkit ({@code mnss_kit.ops.int8.quantize.quantize} and
  * {@code dequantize}, {@code quant.glsl}, {@code mnss_kit.export.boundary}).
  *
  * <p>An int8 tensor with scale {@code s} and zero point {@code z} holds codes {@code q} for the

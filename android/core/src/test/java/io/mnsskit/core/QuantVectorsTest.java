@@ -11,7 +11,7 @@ import org.junit.BeforeClass;
 import org.junit.Test;
 
 /**
- * Golden vectors from the Python toolkit ({@code mnss_kit.ops.quant}): quantize under every
+ * Golden vectors from the Python toolkit ({@code mnss_kit.ops.int8}): quantize under every
  * numerics profile, dequantize and the NHWC word packing, compared bit for bit.  The vectors
  * file is written by {@code tests/android/test_quant_vectors.py} and named by the system
  * property {@code mnss.quantVectors}; without it the test is skipped.
