@@ -196,7 +196,7 @@ class ReferencePasses:
         """fsr2_reconstruct_pass.  depth (h,w,1), motion (h,w,2) -> (dilated (h,w,4): the nearest
         neighbour's depth and motion across an edge (``ops.fsr2.dilate``), 0; previous_depth (h*w,) uint32: the bits of
         ``ops.fsr2.reconstruct_previous_depth_encoded``, 0 where no surface landed)."""
-        depth, motion = np.asarray(depth, np.float32), np.asarray(motion, np.float32)
+        depth, motion = sanitize_depth(np.asarray(depth, np.float32)), sanitize_motion(np.asarray(motion, np.float32))
         dilated_depth, dilated_motion = fsr2.dilate(depth, motion, params.dilation_edge)
         encoded = fsr2.reconstruct_previous_depth_encoded(dilated_depth, dilated_motion)
         dilated = np.concatenate([dilated_depth, dilated_motion, np.zeros_like(dilated_depth)], axis=-1)
@@ -207,7 +207,7 @@ class ReferencePasses:
         h, w = dilated.shape[:2]
         previous = fsr2.decode_depth(np.asarray(previous_depth, np.uint32).view(np.float32).reshape(h, w))[..., None]
         clip = fsr2.disocclusion(dilated[..., 0:1], dilated[..., 1:3], previous, params)
-        thin = fsr2.thin_features(to_half(color)[..., :3], params.lock_contrast)
+        thin = fsr2.thin_features(sanitize_colour(to_half(color))[..., :3], params.lock_contrast)
         return np.concatenate([clip, thin, np.zeros((h, w, 2), np.float32)], axis=-1)
 
     def fsr2_accumulate(self, color, dilated, analysis, history, locks, reactive, previous_depth, jitter, scale: int,
@@ -215,7 +215,7 @@ class ReferencePasses:
         """fsr2_accumulate_pass -> (next_history (H,W,4) and next_locks (H,W,2) fp16 values of
         ``ops.fsr2.accumulate``, previous_depth cleared to zeros).  ``reactive`` (h,w,1) or None."""
         next_history, next_locks = fsr2.accumulate(
-            to_half(color)[..., :3], dilated[..., 1:3], analysis[..., 0:2],
+            sanitize_colour(to_half(color))[..., :3], dilated[..., 1:3], analysis[..., 0:2],
             to_half(history), to_half(locks)[..., :2], as_jitter(jitter), scale, reset, params,
             None if reactive is None else np.asarray(reactive, np.float32))
         return to_half(next_history), to_half(next_locks), np.zeros_like(np.asarray(previous_depth, np.uint32))

@@ -51,6 +51,7 @@ import numpy as np
 
 from .taau import nearest_up, rgb_to_ycocg, ycocg_to_rgb
 from .resample import bilinear_sample
+from .sanitize import sanitize_colour, sanitize_depth, sanitize_motion
 from .warp import upsample_motion
 
 NO_DEPTH = np.float32(1.0)  # reconstructed previous depth where no surface landed: the far plane, never a clip
@@ -427,6 +428,9 @@ def fsr2_frame(colour, depth, motion, jitter, state: FSR2State | None, scale: in
     """One frame: LR ``colour`` (h, w, 3) display RGB, ``depth`` (h, w, 1), ``motion`` (h, w, 2),
     ``jitter`` (2,) -> the output (H, W, 3) in [0, 1] and the next state; ``state`` None starts a
     sequence (as a reset)."""
+    # a NaN or Inf an engine writes costs one frame, never the history (ops.sanitize; the passes
+    # sanitize each read of the inputs alike)
+    colour, depth, motion = sanitize_colour(colour), sanitize_depth(depth), sanitize_motion(motion)
     h, w = colour.shape[:2]
     if state is None:
         state, reset = FSR2State.empty(h * scale, w * scale), True

@@ -99,3 +99,26 @@ def test_chained_frames_match_reference(mesa, ref):
             outputs[name] = passes.fsr2_rcas(history, PARAMS.sharpness)
         assert_float_close(outputs["mesa"], outputs["ref"], TOLERANCE)
         assert_float_close(states["mesa"][0], states["ref"][0], TOLERANCE)
+
+
+def test_bad_input_texels_are_sanitized_alike(mesa, ref):
+    """NaN colour, Inf depth and NaN motion texels: the passes read them through common.glsl's
+    sanitize and the reference through ops.sanitize, so both stay finite and agree."""
+    rng = np.random.default_rng(13)
+    scale = 2
+    f = random_frame(rng, H, W, scale)
+    colour, depth, motion = f["color"].copy(), _depth_with_a_moving_box(rng), f["motion"].copy()
+    colour[1, 1] = np.nan
+    colour[3, 5, 0] = np.inf
+    depth[0, 0] = np.inf
+    motion[2, 3] = np.nan
+    history, locks = _state(rng, scale)
+    results = {}
+    for name, passes in (("mesa", mesa), ("ref", ref)):
+        dilated, words = passes.fsr2_reconstruct(depth, motion, PARAMS)
+        analysis = passes.fsr2_depth_clip(dilated, colour, words, PARAMS)
+        results[name] = passes.fsr2_accumulate(colour, dilated, analysis, history, locks, None, words,
+                                               [0.25, -0.25], scale, False, PARAMS)[:2]
+    for got, want in zip(results["mesa"], results["ref"]):
+        assert np.isfinite(want).all()
+        assert_float_close(got, want, TOLERANCE)

@@ -26,18 +26,18 @@ vec3 dilated_at(highp sampler2D depth, highp sampler2D motion, ivec2 lr, float e
     for (int dy = -1; dy <= 1; dy++) {
         for (int dx = -1; dx <= 1; dx++) {
             ivec2 p = clamp(lr + ivec2(dx, dy), ivec2(0), last);
-            float d = texelFetch(depth, p, 0).x;
+            float d = depth_texel(depth, p);
             if ((dx == -1 && dy == -1) || d < best) {
                 best = d;
                 nearest = p;
             }
         }
     }
-    float centre = texelFetch(depth, lr, 0).x;
+    float centre = depth_texel(depth, lr);
     if (centre - best <= edge * centre) {
-        return vec3(centre, texelFetch(motion, lr, 0).xy);
+        return vec3(centre, motion_texel(motion, lr));
     }
-    return vec3(best, texelFetch(motion, nearest, 0).xy);
+    return vec3(best, motion_texel(motion, nearest));
 }
 
 // ops.fsr2.encode_depth / decode_depth: atomicMax on the bits of 2 - depth keeps the nearest; a
@@ -69,11 +69,11 @@ bool is_ridge(float c, float a, float b, float t) {
 // 1.0 where LR texel `lr`'s luma is a strict local extreme across its row or column (ops.fsr2.thin_features).
 float thin_feature_at(highp sampler2D color, ivec2 lr, float lock_contrast) {
     ivec2 last = textureSize(color, 0) - 1;
-    float c = fsr2_luma(texelFetch(color, lr, 0).rgb);
-    float left = fsr2_luma(texelFetch(color, clamp(lr - ivec2(1, 0), ivec2(0), last), 0).rgb);
-    float right = fsr2_luma(texelFetch(color, clamp(lr + ivec2(1, 0), ivec2(0), last), 0).rgb);
-    float up = fsr2_luma(texelFetch(color, clamp(lr - ivec2(0, 1), ivec2(0), last), 0).rgb);
-    float down = fsr2_luma(texelFetch(color, clamp(lr + ivec2(0, 1), ivec2(0), last), 0).rgb);
+    float c = fsr2_luma(colour_texel(color, lr));
+    float left = fsr2_luma(colour_texel(color, clamp(lr - ivec2(1, 0), ivec2(0), last)));
+    float right = fsr2_luma(colour_texel(color, clamp(lr + ivec2(1, 0), ivec2(0), last)));
+    float up = fsr2_luma(colour_texel(color, clamp(lr - ivec2(0, 1), ivec2(0), last)));
+    float down = fsr2_luma(colour_texel(color, clamp(lr + ivec2(0, 1), ivec2(0), last)));
     return (is_ridge(c, left, right, lock_contrast) || is_ridge(c, up, down, lock_contrast)) ? 1.0 : 0.0;
 }
 
@@ -136,7 +136,7 @@ vec3 lanczos_upsample_at(highp sampler2D color, SamplePlace s) {
         int row = clamp(b.y + a - 1, 0, last.y);
         for (int c = 0; c < 4; c++) {
             int col = clamp(b.x + c - 1, 0, last.x);
-            vec3 tap = rgb_to_ycocg(texelFetch(color, ivec2(col, row), 0).rgb);
+            vec3 tap = rgb_to_ycocg(colour_texel(color, ivec2(col, row)));
             acc += (wy[a] * wx[c]) * tap;
             if (a >= 1 && a <= 2 && c >= 1 && c <= 2) {
                 lo = min(lo, tap);
@@ -165,11 +165,11 @@ vec4 reconstruct_samples_at(highp sampler2D color, SamplePlace s, int scale, flo
         for (int c = 0; c < 3; c++) {
             float wx = main_lobe((s.distance.x - fs * float(c - 1)) / kernel_width);
             int col = clamp(s.nearest.x + c - 1, 0, last.x);
-            acc += (wy * wx) * rgb_to_ycocg(texelFetch(color, ivec2(col, row), 0).rgb);
+            acc += (wy * wx) * rgb_to_ycocg(colour_texel(color, ivec2(col, row)));
             total += wy * wx;
         }
     }
-    vec3 nearest = rgb_to_ycocg(texelFetch(color, s.nearest, 0).rgb);
+    vec3 nearest = rgb_to_ycocg(colour_texel(color, s.nearest));
     return vec4(total > 0.0 ? acc / total : nearest, total);
 }
 
@@ -185,7 +185,7 @@ Box variance_box_at(highp sampler2D color, ivec2 lr, float gamma) {
     vec3 sum2 = vec3(0.0);
     for (int dy = -1; dy <= 1; dy++) {
         for (int dx = -1; dx <= 1; dx++) {
-            vec3 c = rgb_to_ycocg(texelFetch(color, clamp(lr + ivec2(dx, dy), ivec2(0), last), 0).rgb);
+            vec3 c = rgb_to_ycocg(colour_texel(color, clamp(lr + ivec2(dx, dy), ivec2(0), last)));
             sum += c;
             sum2 += c * c;
         }
