@@ -22,6 +22,7 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..fileio import atomic_directory, atomic_write_text, check_format, read_json
+from ..stress.scenarios import BASELINES
 
 BENCH_FORMAT, STRESS_FORMAT, SIZE_FORMAT = ("mnss-kit-bench", 2), ("mnss-kit-stress", 1), ("mnss-kit-size", 1)
 STYLE = """body{font-family:sans-serif;margin:2em;max-width:1200px;color:#222}
@@ -239,7 +240,7 @@ def stress_section(doc: dict, root: Path, staging: Path) -> list[str]:
                 f"<p>{verdict or 'all methods equal'}</p>",
                 *_charts([plots[name]], "stress"),
                 *_images([p for p in crops if Path(p).name.startswith(f"{name}_")], "crop")]
-    learned = [m for m in doc["methods"] if m not in ("bicubic", "taau")]
+    learned = [m for m in doc["methods"] if m not in BASELINES]
     if "taau" in doc["methods"]:
         out.append("<h3>Learned models against TAAU</h3><ul>" + "".join(
             f"<li>{_e(m)} below TAAU in: {_e('; '.join(losses_to(doc, m, 'taau')) or 'no scenario')}</li>" for m in learned)

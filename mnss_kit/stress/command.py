@@ -15,7 +15,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from ..zoo import DEFAULT_MODEL
 
     parser.add_argument("--models", nargs="+", default=[DEFAULT_MODEL], metavar="MODEL",
-                        help="checkpoints or shipped names to test against bicubic and TAAU (default: %(default)s)")
+                        help="checkpoints or shipped names to test against bicubic, TAAU and the FSR2-class upscaler (default: %(default)s)")
     parser.add_argument("--out", type=Path, default=Path("bench/results/stress"),
                         help="directory for stress.json, stress.md, plots/ and crops/ (default: %(default)s)")
     parser.add_argument("--work", type=Path, default=Path("bench/results/work"),

@@ -1,4 +1,4 @@
-"""The stress run: the given models, bicubic and TAAU over every scenario, into one JSON document.
+"""The stress run: the given models and the baselines (bicubic, TAAU, FSR2) over every scenario, into one JSON document.
 
 Per scenario and method: mean PSNR, SSIM, IF-SSIM, temporal error, the error inside disocclusion
 masks (ghosting) and the frames until PSNR is back within 0.5 dB of steady state after each camera
@@ -18,10 +18,9 @@ from ..errors import UserError
 from ..fileio import portable_path
 from ..eval.summary import RECOVERY_TOLERANCE_DB, frames_to_recover
 from ..zoo import DEFAULT_MODEL
-from .scenarios import DATA_CONFIG, FAULTS, MAX_RECOVERY_FRAMES, NOT_COVERED, SCENARIOS, Fault, fault_method, scenario
+from .scenarios import BASELINES, DATA_CONFIG, FAULTS, MAX_RECOVERY_FRAMES, NOT_COVERED, SCENARIOS, Fault, fault_method, scenario
 
 FORMAT, VERSION = "mnss-kit-stress", 1
-BASELINES = ("bicubic", "taau")
 METRIC_KEYS = ("psnr", "ssim", "if_ssim", "temporal_error", "disocclusion_psnr", "disocclusion_l1", "disoccluded_pixels")
 
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 DATA_CONFIG = "stress"
+# the baselines every scenario runs beside the models: the toolkit's TAAU, the FSR2-class upscaler, bicubic
+BASELINES = ("bicubic", "taau", "fsr2")
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 
+from .scenarios import BASELINES
+
 # metric key, label, True if higher is better
 RANKED = (("psnr", "PSNR", True), ("if_ssim", "IF-SSIM", True), ("ssim", "SSIM", True),
           ("disocclusion_psnr", "disocclusion PSNR", True), ("recovery", "frames to recover", False))
@@ -95,8 +97,8 @@ def markdown(doc: dict) -> str:
                  f"worst {w} ({_fmt(key, metric_value(entry['methods'][w], key))})"
                  for key, label, _ in RANKED if label in ranks for b, w in [ranks[label]]]
         lines.append(f"- **{name}** ({entry['case']}): " + ("; ".join(parts) or "all methods equal"))
-    learned = [m for m in doc["methods"] if m not in ("bicubic", "taau")]
-    baselines = [(b, label) for b, label in (("taau", "TAAU"), ("bicubic", "bicubic")) if b in doc["methods"]]
+    learned = [m for m in doc["methods"] if m not in BASELINES]
+    baselines = [(b, label) for b, label in (("taau", "TAAU"), ("fsr2", "FSR2"), ("bicubic", "bicubic")) if b in doc["methods"]]
     if baselines:
         lines += ["", "## Learned models against " + " and ".join(label for _, label in baselines), ""]
         for m in learned:
