@@ -11,10 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import logging
-import re
 import shutil
-import sys
 from pathlib import Path
 from typing import Callable
 
@@ -28,6 +25,8 @@ from mnss_kit.fileio import sha256_file
 from mnss_kit.model import checkpoint
 from mnss_kit.model.config import load_model_config
 from mnss_kit.model.families import build_model, randomise_convs
+
+from fault_helpers import run_cli, snapshot
 
 
 @dataclasses.dataclass
@@ -259,40 +258,17 @@ CASES = {
     "compare-lacks-frame-file": (dump_lacks_frame_file, 2),
 }
 
-SUMMARY = re.compile(r": \d+ problems?$")  # bundle check's closing count, after its problem lines
-
-
-def run_cli(argv: list, capsys) -> tuple[int, list[str]]:
-    """Exit status and stderr lines of one command, log records included (as a terminal shows them)."""
-    handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
-    logging.getLogger().addHandler(handler)
-    try:
-        capsys.readouterr()
-        code = main([str(a) for a in argv])
-    finally:
-        logging.getLogger().removeHandler(handler)
-    err = capsys.readouterr().err
-    assert "Traceback" not in err
-    return code, [line for line in err.splitlines() if line.strip() and not SUMMARY.search(line)]
-
-
-def _snapshot(root: Path) -> dict[str, bytes | None]:
-    """Every path under ``root`` (directories as None) with its bytes."""
-    return {p.relative_to(root).as_posix(): p.read_bytes() if p.is_file() else None for p in sorted(root.rglob("*"))}
-
-
 @pytest.mark.parametrize("prepare, status", CASES.values(), ids=CASES.keys())
 def test_fault_is_one_line_naming_the_culprit(prepare, status, made, tmp_path, capsys):
     argv, words = prepare(made, tmp_path)
-    before = _snapshot(tmp_path)
-    code, lines = run_cli(argv, capsys)
+    before = snapshot(tmp_path)
+    code, lines, _ = run_cli(argv, capsys)
     assert code == status
     assert len(lines) == 1, lines
     for word in words:
         assert word in lines[0], (word, lines[0])
     assert not (tmp_path / "out").exists()
-    assert _snapshot(tmp_path) == before  # inputs unchanged, nothing new beside them
+    assert snapshot(tmp_path) == before  # inputs unchanged, nothing new beside them
     assert not list(made.root.rglob("*.staging.*"))
 
 
@@ -301,5 +277,5 @@ def test_the_good_artefacts_pass_the_same_commands(made, tmp_path, capsys):
     export = ["export", made.qdir, "--checkpoint", made.ckpt, "--out", tmp_path / "out", "--data", made.data, "--golden-frames", 2,
               "--no-progress"]
     for argv in (export, ["bundle", "check", made.bundle], ["emulate", "--compare", made.dump, made.dump]):
-        code, lines = run_cli(argv, capsys)
+        code, lines, _ = run_cli(argv, capsys)
         assert code == 0 and not [line for line in lines if not line.startswith("INFO ")], (argv, lines)
