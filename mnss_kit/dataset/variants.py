@@ -126,11 +126,12 @@ def engine_inputs_motion(src: Path, meta: fmt.SequenceMeta, index: int, names: l
         camera = fmt.canonical_motion(camera_motion(src, meta, index), meta, meta.lr_size)
     if "camera_motion" in names:
         motion = camera
-    labels, count = engine_motion.moving_objects(motion, camera)
-    if "motion_rigid" in names:
-        motion = engine_motion.rigid(motion, engine_motion.objects_of_kind(labels, count, cells, "rigid"))
-    if "motion_absent" in names:
-        motion = engine_motion.absent(motion, engine_motion.objects_of_kind(labels, count, cells, "absent"))
+    if "motion_rigid" in names or "motion_absent" in names:
+        labels, count = engine_motion.moving_objects(motion, camera)
+        if "motion_rigid" in names:
+            motion = engine_motion.rigid(motion, engine_motion.objects_of_kind(labels, count, cells, "rigid"))
+        if "motion_absent" in names:
+            motion = engine_motion.absent(motion, engine_motion.objects_of_kind(labels, count, cells, "absent"))
     if "motion_dilate" in names:
         motion = engine_motion.dilated(motion, fmt.read_buffer(src, meta, "lr", "depth", index))
     if "motion_noise" in names:

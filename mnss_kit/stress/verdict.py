@@ -79,7 +79,7 @@ def _recovery_cell(stats: dict) -> str:
 
 
 def markdown(doc: dict) -> str:
-    """The stress table, the verdict per scenario, the learned models against TAAU and bicubic, and what is not covered."""
+    """The stress table, the verdict per scenario, the learned models against each baseline, and what is not covered."""
     lines = ["# Stress scenarios", "", f"Methods: {', '.join(doc['methods'])} (same frames, one run).",
              f"Frames to recover: until PSNR is within {doc['settings']['recovery_tolerance_db']} dB of steady state "
              "after each camera cut or pan end (one number per event).", "",

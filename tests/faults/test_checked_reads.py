@@ -3,6 +3,7 @@ own line; what it warns about, they warn about too."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import shutil
 
@@ -86,7 +87,7 @@ def test_a_one_frame_sequence_is_warned_about(synthetic_dataset, tmp_path):
 def test_eval_warns_where_data_check_warns(synthetic_dataset, tmp_path, caplog):
     seq = shutil.copytree(synthetic_dataset / "pan", tmp_path / "pan")
     meta = fmt.read_meta(seq)
-    frames = [fmt.dataclasses.replace(f, jitter=(-f.jitter[0], -f.jitter[1])) for f in meta.frames]  # not the pattern
+    frames = [dataclasses.replace(f, jitter=(-f.jitter[0], -f.jitter[1])) for f in meta.frames]  # not the pattern
     fmt.write_meta(seq, fmt.replace_meta(meta, frames=frames))
     warned = [p.message for p in check_dataset(seq, progress=False).warnings]
     assert warned
@@ -99,11 +100,11 @@ def test_jitter_problems_name_the_frame_with_plain_numbers(synthetic_dataset, tm
     seq = shutil.copytree(synthetic_dataset / "pan", tmp_path / "pan")
     meta = fmt.read_meta(seq)
     frames = list(meta.frames)
-    frames[3] = fmt.dataclasses.replace(frames[3], jitter=(0.1, 0.2))  # off the pattern from frame 3
+    frames[3] = dataclasses.replace(frames[3], jitter=(0.1, 0.2))  # off the pattern from frame 3
     fmt.write_meta(seq, fmt.replace_meta(meta, frames=frames))
     (warning,) = [p.message for p in check_dataset(seq, progress=False).warnings if "pattern" in p.message]
     assert "from frame 3: (0.1, 0.2)" in warning and "np." not in warning
-    frames[1] = fmt.dataclasses.replace(frames[1], jitter=(0.123, 0.25))
+    frames[1] = dataclasses.replace(frames[1], jitter=(0.123, 0.25))
     fmt.write_meta(seq, fmt.replace_meta(meta, frames=frames))
     text = (seq / "meta.json").read_text()
     (seq / "meta.json").write_text(text.replace("0.123", "NaN", 1))  # as an exporter's JSON writer may put it
