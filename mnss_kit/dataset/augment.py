@@ -12,6 +12,8 @@
     motion_pack8   LR motion through the 8-bit pair packing (``engine_motion.packed8``)
     motion_half    LR motion through 16-bit floats in UV units (``engine_motion.half_float``); at
                    most one of the two packings per window
+    taa_reference  the target is the native TAA render (``hr/reference_taa``) instead of the
+                   16-sample box one: an engine's "ground truth" is its own anti-aliased frame
 
 The draws come from ``(seed, epoch, window index)``, as the crops do, so a window's augmentation
 does not depend on the worker that loads it.  Validation windows are never augmented.  The same
@@ -28,7 +30,9 @@ from . import engine_motion
 from .variants import MOTION_NOISE_PX, hardware_depth_bits, ldr8_colour, noisy_motion
 
 # new names go last: a config's draws (one per name it lists, in this order) stay what they were
-AUGMENTATIONS = ("ldr8", "depth8", "depth16", "motion_noise", "exposure", "motion_dilate", "motion_pack8", "motion_half")
+AUGMENTATIONS = ("ldr8", "depth8", "depth16", "motion_noise", "exposure", "motion_dilate", "motion_pack8", "motion_half",
+                 "taa_reference")
+TAA_REFERENCE_KEY = "hr_reference_taa"  # the window key the loader gives hr/reference_taa when taa_reference is drawn from
 PER_FRAME_MOTION = {"motion_pack8": engine_motion.packed8, "motion_half": engine_motion.half_float}
 EXPOSURE_STOPS = 1.0  # exposure scale 2^u, |u| <= this
 
@@ -57,7 +61,9 @@ def augment_window(arrays: dict[str, np.ndarray], meta: fmt.SequenceMeta, augmen
     for name in draw(augment, rng):
         if name == "exposure":
             scale = np.float32(2.0 ** rng.uniform(-EXPOSURE_STOPS, EXPOSURE_STOPS))
-            for key in ("color", "reference"):
+            for key in ("color", "reference", TAA_REFERENCE_KEY):
+                if key not in out:
+                    continue
                 out[key] = colour.to_display(colour.from_display(out[key]) * scale)
             for key in ("lr_emissive", "hr_emissive"):
                 if key in out:
@@ -72,6 +78,9 @@ def augment_window(arrays: dict[str, np.ndarray], meta: fmt.SequenceMeta, augmen
             out["motion"] = _per_frame(lambda m, d: engine_motion.dilated(m, d), out["motion"], out["depth"])
         elif name in PER_FRAME_MOTION:
             out["motion"] = _per_frame(lambda m, _: PER_FRAME_MOTION[name](m), out["motion"], out["depth"])
+        elif name == "taa_reference":
+            out["reference"] = out[TAA_REFERENCE_KEY]
+    out.pop(TAA_REFERENCE_KEY, None)  # every window carries the same keys, whichever target it drew
     return out
 
 

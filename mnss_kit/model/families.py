@@ -10,8 +10,9 @@ from .family import Family
 from .fusesr import FUSESR_FAMILY
 from .mnss import MNSS_FAMILY
 from .ntaau import NTAAU_FAMILY
+from .ntaau_lr import NTAAU_LR_FAMILY
 
-FAMILIES: dict[str, Family] = {"mnss": MNSS_FAMILY, "fusesr": FUSESR_FAMILY, "ntaau": NTAAU_FAMILY}
+FAMILIES: dict[str, Family] = {"mnss": MNSS_FAMILY, "fusesr": FUSESR_FAMILY, "ntaau": NTAAU_FAMILY, "ntaau_lr": NTAAU_LR_FAMILY}
 
 
 def family_named(name: str) -> Family:

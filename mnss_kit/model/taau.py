@@ -83,6 +83,9 @@ class Steer:
     correction: torch.Tensor | float = 0.0  # added to the displayed colour (YCoCg), not to the history
     filter_axis: torch.Tensor | float = 0.0  # display filter: weight of each of the 4 axis neighbours
     filter_diagonal: torch.Tensor | float = 0.0  # display filter: weight of each of the 4 diagonal neighbours
+    # spatial fallback in [0, 1]: the blend moves this far to the jitter-aware bicubic of this frame,
+    # and its accumulated weight shrinks by as much (a history that cannot be trusted is not kept)
+    fallback: torch.Tensor | float = 0.0
 
 
 NEUTRAL = Steer()
@@ -298,10 +301,14 @@ def blend(inputs: TAAUInputs, params: TAAUParams, steer: Steer = NEUTRAL) -> tup
     sample_weight = inputs.sample_weight * steer.sample_gain
     p = params.prior_weight
     blended = (weight * clamped + sample_weight * inputs.samples + p * inputs.spatial) / (weight + sample_weight + p)
+    accumulated = (weight + sample_weight).clamp(max=params.max_weight)
+    if not (isinstance(steer.fallback, float) and steer.fallback == 0.0):
+        blended = blended + steer.fallback * (inputs.spatial - blended)
+        accumulated = accumulated * (1.0 - steer.fallback)
     history = ycocg_to_rgb(blended).clamp(0.0, 1.0)
     filtered = display_filter(history, steer.filter_axis, steer.filter_diagonal)
     output = (filtered + ycocg_to_rgb(_as_channels(steer.correction, history))).clamp(0.0, 1.0)
-    return output, {"history": history, "weight": (weight + sample_weight).clamp(max=params.max_weight)}
+    return output, {"history": history, "weight": accumulated}
 
 
 def _as_channels(correction: torch.Tensor | float, like: torch.Tensor) -> torch.Tensor:

@@ -13,6 +13,7 @@ worker processes or of earlier runs, so resuming at step ``s`` only needs
 from __future__ import annotations
 
 import logging
+import shutil
 from pathlib import Path
 from typing import Iterator
 
@@ -76,9 +77,12 @@ def open_windows(cfg: TrainConfig, dirs: list[Path], crop: int | None, progress:
     ``family`` (a ``model.family.Family``, or None: the base buffers only) reads; ``augment``: the
     config's ``train.augment`` (training windows only)."""
     size = None if crop is None else (crop, crop)
+    hr_buffers = tuple(family.hr_inputs) if family else ()
+    if augment and "taa_reference" in cfg.augment:  # a window may take the native TAA render as its target
+        hr_buffers += ("reference_taa",)
     return WindowDataset([str(d) for d in dirs], cfg.frames_per_window, size, seed=cfg.seed, cache=True, cache_dir=cfg.cache_dir,
                          progress=progress,
-                         hr_buffers=family.hr_inputs if family else (), lr_buffers=family.lr_buffers if family else (),
+                         hr_buffers=hr_buffers, lr_buffers=family.lr_buffers if family else (),
                          needed_by=f"the {family.name} family" if family else "", augment=cfg.augment if augment else None)
 
 
@@ -116,13 +120,26 @@ def ensure_data(cfg: TrainConfig, data: DataSection | None, progress: bool = Tru
 
 def render(render_config: str, out_dir: Path, progress: bool) -> None:
     """Render the data config ``render_config`` into ``out_dir``: a path or a name under
-    mnss_kit/configs/data/, optionally followed by overrides (``train_x2 jitter=center``)."""
+    mnss_kit/configs/data/, optionally followed by overrides (``train_x2 jitter=center``) and by
+    ``variant=NAME[,NAME]`` (``mnss-kit data variant --apply``: the render rewritten as an engine
+    would send it; the clean render is kept beside it as ``OUT.source`` until the variant is written)."""
     try:
         from ..render.config import load_render_config
         from ..render.writer import render_dataset
     except ImportError as e:
         raise UserError(f"cannot render {out_dir}: the renderer is not available in this installation ({e})") from None
     name, *overrides = render_config.split()
+    variants = [v for o in overrides if o.startswith("variant=") for v in o[len("variant="):].split(",") if v]
+    overrides = [o for o in overrides if not o.startswith("variant=")]
+    if variants:
+        from ..dataset.variants import write_variant_dataset
+
+        source = out_dir.with_name(out_dir.name + ".source")
+        render(" ".join([name, *overrides]), source, progress)
+        log.info("writing the %s variant of %s into %s", ",".join(variants), source, out_dir)
+        write_variant_dataset(source, out_dir, variants)
+        shutil.rmtree(source)
+        return
     cfg = load_render_config(name, overrides or None)
     # Render beside the target and rename when complete: a killed render never looks like data,
     # and the next run continues it (the renderer skips frames already written).

@@ -1,0 +1,50 @@
+"""The ``model:`` section of an ntaau_lr-family config."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+SCALES = (2, 3, 4)
+FEATURE_CHANNELS = 8  # per LR pixel: colour (3), history luma - colour luma, clamp distance, history weight,
+#                       depth change since the last frame, motion spread
+STEER_CHANNELS = 6  # per LR pixel: history gain, sample gain, box widening, spatial fallback, filter (2)
+
+
+@dataclass
+class NTAAULRConfig:
+    """A network at LR steering a TAAU accumulation (``model.taau``) from evidence the GPU gathers
+    cheaply (depth change, motion spread, clamp distance); its steering is upsampled on the GPU.
+    Zero net outputs are the toolkit's TAAU."""
+
+    family: Literal["ntaau_lr"] = "ntaau_lr"
+    scale: int = 2
+    width: int = 16  # channels at LR; the half-resolution level has twice as many
+    mid_layers: int = 2  # 3x3 convs at half LR resolution (the encoder-decoder's inner level), >= 1
+    box_bound: float = 2.0  # the clamp box widens by at most this times its span per side
+    filter_bound: float = 0.25  # the display filter's two weights, each at most this
+    # history trust above TAAU's (a history gain over 1, a wider clamp box) fades to none where the
+    # depth grew by this share since the last frame (a disocclusion) ...
+    trust_depth: float = 0.1
+    # ... or where the motion differs from a neighbour's by this many LR pixels (an edge of a moving
+    # object, where dilated or rigid motion vectors are wrong)
+    trust_spread_px: float = 1.0
+    alpha: float = 0.1  # TAAU's converged blend factor (model.taau.TAAUParams)
+
+    def __post_init__(self):
+        if self.scale not in SCALES:
+            raise ValueError(f"scale must be one of {list(SCALES)}, got {self.scale}")
+        if self.width < 2 or self.mid_layers < 1:
+            raise ValueError("width must be >= 2 and mid_layers >= 1")
+        if not 0.0 < self.box_bound <= 4.0:
+            raise ValueError(f"box_bound must be in (0, 4], got {self.box_bound}")
+        if not 0.0 <= self.filter_bound <= 0.25:
+            raise ValueError(f"filter_bound must be in [0, 0.25], got {self.filter_bound}")
+        if self.trust_depth <= 0.0 or self.trust_spread_px <= 0.0:
+            raise ValueError("trust_depth and trust_spread_px must be > 0")
+
+    def npu_input_channels(self) -> int:
+        return FEATURE_CHANNELS
+
+    def steer_channels(self) -> int:
+        return STEER_CHANNELS

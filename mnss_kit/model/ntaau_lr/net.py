@@ -1,0 +1,208 @@
+"""Neural TAAU steered at LR: a small encoder-decoder at LR reads what the GPU can cheaply tell
+about each pixel's history and steers the toolkit's TAAU accumulation, with a way out of it.
+
+Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``
+(``model.taau`` defines every step of the accumulation):
+
+    lr_gather   (gpu)  TAAU's inputs (``model.taau.taau_inputs``) and 8 features per LR pixel:
+                       the LR colour, the clamped history's luma minus the colour's, the clamp
+                       distance and the history weight (each averaged over the pixel's s x s HR
+                       block), the depth change since the last frame (this depth against the
+                       nearest of the last frame's 3x3 depths at the reprojected position,
+                       relative) and the motion spread (largest motion difference to a 3x3
+                       neighbour, LR pixels); padded to an even size
+    steer       (npu)  conv 3x3 at LR, space-to-depth, ``mid_layers`` convs 3x3 at half LR,
+                       conv 1x1, depth-to-space, added to the first conv's output, conv 3x3:
+                       6 raw values per LR pixel (1.5 bytes per HR pixel at x2 in int8)
+    lr_accumulate (gpu) the raw values upsampled bilinearly to HR and mapped to the steering:
+                       history gain 2 sigmoid(a), sample gain 2 sigmoid(b), box widening
+                       (``model.taau.box_widening``), spatial fallback max(tanh(d), 0) and the
+                       display filter's weights filter_bound tanh(e), tanh(f); TAAU's blend
+                       with them
+
+Trust is earned from evidence: the part of the history gain above 1 and a widening of the box
+are scaled by ``trust = clamp(1 - max(depth change, 0) / trust_depth - spread / trust_spread_px,
+0, 1)``, so where depth says "disoccluded" or the motion field says "edge of a moving object" the
+net cannot trust a history more than TAAU does.  It can always trust it less, and move the blend
+towards a spatial reconstruction of this frame's samples (the jitter-aware bicubic), which also
+drops the accumulated weight: alpha-tested cut-outs, disocclusions and a settling pan, where
+TAAU's history is wrong, get this frame instead of TAAU's failures.
+
+A fresh net outputs zeros, which is TAAU itself.  State: ``history`` (N,3,H,W) the previous
+blend, ``weight`` (N,1,H,W) its accumulated weight, ``depth`` (N,1,h,w) the last LR depth.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from ..family import check_frame
+from ..layers import warp_bilinear
+from ..taau import (Steer, TAAUInputs, TAAUParams, blend, box_widening, rgb_to_ycocg, sanitize_colour, sanitize_depth,
+                    sanitize_motion, taau_inputs)
+from .config import NTAAULRConfig
+
+STAGE_ORDER = ("lr_gather", "steer", "lr_accumulate")
+FRAME_SHAPES = {"color": 3, "depth": 1, "motion": 2}
+DEPTH_FLOOR = 1e-4  # canonical depth below which the relative change is taken against this
+
+
+def depth_change(depth: torch.Tensor, previous: torch.Tensor, motion: torch.Tensor) -> torch.Tensor:
+    """Relative depth change per LR pixel (N, 1, h, w): this depth minus the nearest of the last
+    frame's 3x3 depths around where the pixel was, over this depth; > 0 where a surface appeared
+    from behind another (a disocclusion).  The nearest of 3x3 keeps thin foreground edges, which a
+    fractional fetch would blur into the background, from reading as disocclusions."""
+    nearest = -F.max_pool2d(F.pad(-previous, (1, 1, 1, 1), mode="replicate"), 3, stride=1)
+    reprojected = warp_bilinear(nearest, motion)
+    return ((depth - reprojected) / depth.clamp(min=DEPTH_FLOOR)).clamp(-1.0, 1.0)
+
+
+def motion_spread(motion: torch.Tensor) -> torch.Tensor:
+    """Largest L1 difference (LR pixels) between a pixel's motion and one of its 8 neighbours' (N, 1, h, w)."""
+    h, w = motion.shape[-2:]
+    p = F.pad(motion, (1, 1, 1, 1), mode="replicate")
+    diffs = [(p[:, :, 1 + dy:1 + dy + h, 1 + dx:1 + dx + w] - motion).abs().sum(dim=1, keepdim=True)
+             for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
+    return torch.stack(diffs, dim=0).amax(dim=0)
+
+
+def trust(change: torch.Tensor, spread: torch.Tensor, config: NTAAULRConfig) -> torch.Tensor:
+    """How much history trust above TAAU's the evidence allows, in [0, 1] per LR pixel."""
+    return (1.0 - change.clamp(min=0.0) / config.trust_depth - spread / config.trust_spread_px).clamp(0.0, 1.0)
+
+
+def pad_even(x: torch.Tensor) -> torch.Tensor:
+    """``x`` padded at the bottom and right (edge values) to an even height and width: the steering
+    net halves its resolution once."""
+    h, w = x.shape[-2:]
+    return F.pad(x, (0, w % 2, 0, h % 2), mode="replicate") if (h % 2 or w % 2) else x
+
+
+class Gather(nn.Module):
+    """TAAU's inputs, the trust map and the steering features at LR (no weights)."""
+
+    placement = "gpu"
+
+    def __init__(self, config: NTAAULRConfig, params: TAAUParams):
+        super().__init__()
+        self.config, self.params = config, params
+
+    def forward(self, color, depth, previous_depth, jitter, motion, reset, state):
+        """-> (TAAUInputs, trust (N, 1, h, w), features (N, 8, h', w') with h', w' the even size)."""
+        s = self.config.scale
+        inputs = taau_inputs(color, jitter, motion, reset, state, s, self.params)
+        clamped = torch.minimum(torch.maximum(inputs.history, inputs.lo), inputs.hi)
+        distance = F.avg_pool2d((inputs.history - clamped).abs().sum(dim=1, keepdim=True), s)
+        weight = F.avg_pool2d(inputs.history_weight, s) / self.params.max_weight
+        luma_gap = F.avg_pool2d(clamped[:, :1], s) - rgb_to_ycocg(color)[:, :1]
+        change = depth_change(depth, previous_depth, motion)
+        spread = motion_spread(motion)
+        features = torch.cat([color, luma_gap, distance, weight, change, spread.clamp(max=4.0)], dim=1)
+        return inputs, trust(change, spread, self.config), pad_even(features)
+
+
+class SteerNet(nn.Module):
+    """The NPU part, an encoder-decoder at LR: Conv2d (bias), ReLU, PixelUnshuffle, PixelShuffle,
+    add; fx-traceable.  ``forward(features)``: (N, 8, h, w), h and w even -> raw steering (N, 6, h, w)."""
+
+    placement = "npu"
+
+    def __init__(self, c_in: int, width: int, mid_layers: int, c_out: int):
+        super().__init__()
+        self.encode = nn.Sequential(_conv(c_in, width, 3), nn.ReLU())
+        mid: list[nn.Module] = [nn.PixelUnshuffle(2)]
+        channels = 4 * width
+        for _ in range(mid_layers):
+            mid += [_conv(channels, 2 * width, 3), nn.ReLU()]
+            channels = 2 * width
+        mid += [_conv(channels, 4 * width, 1), nn.PixelShuffle(2)]
+        self.middle = nn.Sequential(*mid)
+        self.decode = nn.Sequential(nn.ReLU(), nn.Conv2d(width, c_out, 3, padding=1))
+        nn.init.zeros_(self.decode[1].weight)  # a fresh net outputs zeros: TAAU itself
+        nn.init.zeros_(self.decode[1].bias)
+
+    def forward(self, features):
+        encoded = self.encode(features)
+        return self.decode(encoded + self.middle(encoded))
+
+
+def _conv(c_in: int, c_out: int, k: int) -> nn.Conv2d:
+    conv = nn.Conv2d(c_in, c_out, k, padding=k // 2)
+    nn.init.kaiming_normal_(conv.weight, nonlinearity="relu")
+    nn.init.zeros_(conv.bias)
+    return conv
+
+
+def steer_from_lr(raw: torch.Tensor, trust_lr: torch.Tensor, config: NTAAULRConfig) -> Steer:
+    """The raw LR steering (N, 6, h, w) and the trust map (N, 1, h, w), upsampled bilinearly to HR
+    (clamp-to-edge, texel centres as a GPU's linear filter), mapped to their ranges."""
+    s = config.scale
+    hr = F.interpolate(torch.cat([raw, trust_lr], dim=1), scale_factor=s, mode="bilinear", align_corners=False)
+    allowed = hr[:, 6:7]
+    history_gain = 2.0 * torch.sigmoid(hr[:, 0:1])
+    history_gain = torch.where(history_gain > 1.0, 1.0 + (history_gain - 1.0) * allowed, history_gain)
+    widen = box_widening(hr[:, 2:3], config.box_bound)
+    widen = torch.where(widen > 0.0, widen * allowed, widen)
+    return Steer(history_gain=history_gain, sample_gain=2.0 * torch.sigmoid(hr[:, 1:2]), box_widen=widen,
+                 fallback=torch.tanh(hr[:, 3:4]).clamp(min=0.0),
+                 filter_axis=config.filter_bound * torch.tanh(hr[:, 4:5]),
+                 filter_diagonal=config.filter_bound * torch.tanh(hr[:, 5:6]))
+
+
+class Accumulate(nn.Module):
+    """The LR steering upsampled and mapped, and TAAU's blend with it."""
+
+    placement = "gpu"
+
+    def __init__(self, params: TAAUParams, config: NTAAULRConfig):
+        super().__init__()
+        self.params, self.config = params, config
+
+    def forward(self, inputs: TAAUInputs, trust_lr, raw):
+        h, w = trust_lr.shape[-2:]
+        return blend(inputs, self.params, steer_from_lr(raw[:, :, :h, :w], trust_lr, self.config))
+
+
+class NTAAULR(nn.Module):
+    """``model(frame, state) -> (output, aux, state)``; see the module docstring."""
+
+    def __init__(self, config: NTAAULRConfig):
+        super().__init__()
+        self.config = config
+        self.scale = config.scale
+        self.params = TAAUParams(alpha=config.alpha)
+        self.lr_gather = Gather(config, self.params)
+        self.steer = SteerNet(config.npu_input_channels(), config.width, config.mid_layers, config.steer_channels())
+        self.lr_accumulate = Accumulate(self.params, config)
+
+    def stages(self) -> list[tuple[str, nn.Module, str]]:
+        return [(n, getattr(self, n), getattr(self, n).placement) for n in STAGE_ORDER]
+
+    def initial_state(self, frame: dict) -> dict:
+        color = frame["color"]
+        n, _, h, w = color.shape
+        s = self.scale
+        return {"history": color.new_zeros(n, 3, h * s, w * s), "weight": color.new_zeros(n, 1, h * s, w * s),
+                "depth": sanitize_depth(frame["depth"]).clone()}
+
+    def forward(self, frame: dict, state: dict | None = None):
+        """One frame: color (N,3,h,w), depth (N,1,h,w), motion (N,2,h,w), jitter (N,2), optional
+        reset (N,).  Returns output (N,3,H,W), aux {taau: the unsteered blend}, next state."""
+        check_frame(frame, FRAME_SHAPES, self.scale, "ntaau_lr")
+        color, motion = sanitize_colour(frame["color"]), sanitize_motion(frame["motion"])
+        depth, jitter = sanitize_depth(frame["depth"]), frame["jitter"]
+        n = color.shape[0]
+        reset = frame.get("reset")
+        reset = color.new_zeros(n) if reset is None else reset.to(color)
+        if state is None:
+            state, reset = self.initial_state(frame), color.new_ones(n)
+        cut = (reset > 0.5).view(n, 1, 1, 1)  # a cut history may hold anything, NaN included
+        previous_depth = torch.where(cut, depth, state["depth"])
+        state = {"history": torch.where(cut, 0.0, state["history"]), "weight": torch.where(cut, 0.0, state["weight"])}
+        inputs, trust_lr, features = self.lr_gather(color, depth, previous_depth, jitter, motion, reset, state)
+        output, next_state = self.lr_accumulate(inputs, trust_lr, self.steer(features))
+        with torch.no_grad():
+            taau, _ = blend(inputs, self.params)
+        return output, {"taau": taau}, {**next_state, "depth": depth}
