@@ -171,6 +171,9 @@ class Steer:
     correction: np.ndarray | float = 0.0
     filter_axis: np.ndarray | float = 0.0
     filter_diagonal: np.ndarray | float = 0.0
+    # spatial fallback in [0, 1]: the blend moves this far to the bicubic ``spatial`` and its
+    # accumulated weight shrinks by as much (``ntaau_lr``: a history that cannot be trusted is not kept)
+    fallback: np.ndarray | float = 0.0
 
 
 def history_floor(motion: np.ndarray, scale: int, history_gain_min: float, still_motion_px: float):
@@ -238,13 +241,17 @@ def blend(samples, sample_weight, spatial, lo, hi, history, history_weight, prio
           steer: Steer = Steer()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One steered TAAU step (inputs in YCoCg): the displayed RGB (H, W, 3) in [0, 1], the next
     history (the blend, RGB in [0, 1]) and its accumulated weight (H, W, 1).  The display is that
-    history through the display filter plus the correction: neither builds up in the history."""
+    history through the display filter plus the correction: neither builds up in the history.  A
+    fallback moves the blend toward ``spatial`` before it becomes the history."""
     span = hi - lo
     clamped = np.minimum(np.maximum(history, lo - steer.box_widen * span), hi + steer.box_widen * span)
     weight = history_weight * steer.history_gain
     current = sample_weight * steer.sample_gain
     mixed = (weight * clamped + current * samples + prior_weight * spatial) / (weight + current + prior_weight)
+    accumulated = np.minimum(weight + current, max_weight).astype(np.float32)
+    if not (np.isscalar(steer.fallback) and steer.fallback == 0.0):
+        mixed = mixed + steer.fallback * (spatial - mixed)
+        accumulated = (accumulated * (np.float32(1.0) - steer.fallback)).astype(np.float32)
     next_history = np.clip(ycocg_to_rgb(mixed), 0.0, 1.0)
     output = display(next_history, steer)
-    return (output, next_history.astype(np.float32),
-            np.minimum(weight + current, max_weight).astype(np.float32))
+    return output, next_history.astype(np.float32), accumulated

@@ -1,0 +1,110 @@
+"""Reference definitions of the ``ntaau_lr`` family's own steps (numpy, one frame, ``(h, w, C)``):
+the evidence the GPU gathers at LR (depth change, motion spread, trust), the 8 steering features,
+and the LR steering upsampled to HR and mapped to a :class:`~.taau.Steer`.  The torch model
+(``model.ntaau_lr.net``) and the GLSL passes (``taau_lr*.comp``) are tested against these; the
+accumulation itself is ``ops.taau``'s.
+
+Conventions are ``ops.conventions``: pixel centres at +0.5, clamp-to-edge, motion in LR pixels
+pointing to the previous frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .resample import avgpool, upsample_bilinear
+from .taau import Steer, box_widening, neighbourhood_box, rgb_to_ycocg
+from .warp import warp_bilinear
+
+DEPTH_FLOOR = 1e-4  # depth below which the relative change is taken against this (model.ntaau_lr.net)
+SPREAD_CAP = 4.0  # the motion spread feature is capped here (LR pixels)
+FEATURES = 8  # per LR pixel: colour (3), luma gap, clamp distance, history weight, depth change, spread
+STEER_CHANNELS = 6  # history gain, sample gain, box widening, fallback, filter axis, filter diagonal
+
+
+def nearest_depth(previous: np.ndarray) -> np.ndarray:
+    """The nearest (smallest) of each pixel's 3x3 depths, edges repeated: (h, w, 1)."""
+    h, w = previous.shape[:2]
+    p = np.pad(np.asarray(previous, np.float32), ((1, 1), (1, 1), (0, 0)), mode="edge")
+    return np.stack([p[dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)]).min(axis=0)
+
+
+def depth_change(depth: np.ndarray, previous: np.ndarray, motion: np.ndarray) -> np.ndarray:
+    """Relative depth change (h, w, 1) in [-1, 1]: this depth minus the nearest of the last frame's
+    3x3 depths fetched bilinearly where the pixel was, over this depth; > 0 at a disocclusion."""
+    depth = np.asarray(depth, np.float32)
+    reprojected = warp_bilinear(nearest_depth(previous), np.asarray(motion, np.float32))
+    change = (depth - reprojected) / np.maximum(depth, np.float32(DEPTH_FLOOR))
+    return np.clip(change, -1.0, 1.0).astype(np.float32)
+
+
+def motion_spread(motion: np.ndarray) -> np.ndarray:
+    """The largest L1 difference (LR pixels) between a pixel's motion and one of its 8 neighbours' (h, w, 1)."""
+    h, w = motion.shape[:2]
+    m = np.asarray(motion, np.float32)
+    p = np.pad(m, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    diffs = [np.abs(p[1 + dy:1 + dy + h, 1 + dx:1 + dx + w] - m).sum(axis=-1, keepdims=True)
+             for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
+    return np.stack(diffs).max(axis=0).astype(np.float32)
+
+
+def trust(change: np.ndarray, spread: np.ndarray, trust_depth: float, trust_spread_px: float) -> np.ndarray:
+    """How much history trust above TAAU's the evidence allows, in [0, 1] per LR pixel."""
+    t = 1.0 - np.maximum(change, 0.0) / np.float32(trust_depth) - spread / np.float32(trust_spread_px)
+    return np.clip(t, 0.0, 1.0).astype(np.float32)
+
+
+def evidence(depth, previous, motion, trust_depth: float, trust_spread_px: float) -> np.ndarray:
+    """(h, w, 4): depth change, motion spread, trust, 0 (the layout of ``taau_lr_evidence_pass``)."""
+    change, spread = depth_change(depth, previous, motion), motion_spread(motion)
+    return np.concatenate([change, spread, trust(change, spread, trust_depth, trust_spread_px),
+                           np.zeros_like(change)], axis=-1)
+
+
+def pad_even(x: np.ndarray) -> np.ndarray:
+    """``x`` (h, w, C) padded at the bottom and right (edge values) to an even height and width."""
+    h, w = x.shape[:2]
+    return np.pad(x, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge")
+
+
+def steering_features(colour: np.ndarray, history: np.ndarray, history_weight: np.ndarray, change: np.ndarray,
+                      spread: np.ndarray, scale: int, max_weight: float) -> np.ndarray:
+    """The steering net's input (h', w', 8), padded to an even size: the LR colour, the clamped YCoCg
+    ``history``'s luma minus the colour's, the clamp distance and ``history_weight / max_weight``
+    (each the mean over the pixel's s x s HR block), the depth change and the spread (capped)."""
+    colour = np.asarray(colour, np.float32)
+    lo, hi = neighbourhood_box(rgb_to_ycocg(colour), scale)
+    clamped = np.minimum(np.maximum(history, lo), hi)
+    distance = avgpool(np.abs(history - clamped).sum(axis=-1, keepdims=True), scale)
+    weight = avgpool(history_weight, scale) / np.float32(max_weight)
+    luma_gap = avgpool(clamped[..., :1], scale) - rgb_to_ycocg(colour)[..., :1]
+    capped = np.minimum(spread, np.float32(SPREAD_CAP))
+    return pad_even(np.concatenate([colour, luma_gap, distance, weight, change, capped], axis=-1).astype(np.float32))
+
+
+def steer_from_lr(raw: np.ndarray, trust_lr: np.ndarray, scale: int, box_bound: float, filter_bound: float) -> Steer:
+    """The raw LR steering (h, w, 6; the net's padded output cropped) and the trust map (h, w, 1)
+    upsampled bilinearly to HR (clamp-to-edge, texel centres) and mapped: history gain 2 sigmoid,
+    its part above 1 scaled by the trust; sample gain 2 sigmoid; box widening, a widening scaled by
+    the trust; fallback max(tanh, 0); the display filter's weights ``filter_bound`` tanh."""
+    both = np.concatenate([np.asarray(raw, np.float32), np.asarray(trust_lr, np.float32)], axis=-1)
+    hr = upsample_bilinear(both, scale)
+    allowed = hr[..., 6:7]
+    sigmoid = lambda x: 1.0 / (1.0 + np.exp(-x))  # noqa: E731
+    history_gain = 2.0 * sigmoid(hr[..., 0:1])
+    history_gain = np.where(history_gain > 1.0, 1.0 + (history_gain - 1.0) * allowed, history_gain)
+    widen = box_widening(hr[..., 2:3], box_bound)
+    widen = np.where(widen > 0.0, widen * allowed, widen)
+    bound = np.float32(filter_bound)
+    return Steer(history_gain=history_gain.astype(np.float32), sample_gain=(2.0 * sigmoid(hr[..., 1:2])).astype(np.float32),
+                 box_widen=widen.astype(np.float32), fallback=np.maximum(np.tanh(hr[..., 3:4]), 0.0).astype(np.float32),
+                 filter_axis=(bound * np.tanh(hr[..., 4:5])).astype(np.float32),
+                 filter_diagonal=(bound * np.tanh(hr[..., 5:6])).astype(np.float32))
+
+
+def filter_weights(raw: np.ndarray, scale: int, filter_bound: float) -> tuple[np.ndarray, np.ndarray]:
+    """The display filter's axis and diagonal weights (each (H, W, 1)) from the raw LR steering (h, w, 6)."""
+    hr = upsample_bilinear(np.asarray(raw, np.float32)[..., 4:6], scale)
+    bound = np.float32(filter_bound)
+    return (bound * np.tanh(hr[..., 0:1])).astype(np.float32), (bound * np.tanh(hr[..., 1:2])).astype(np.float32)
+

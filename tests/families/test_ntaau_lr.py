@@ -1,0 +1,138 @@
+"""The ntaau_lr family: a fresh model is the TAAU baseline bit for bit, each of its own steps in
+torch is its numpy reference (``ops.taau_lr``; the GLSL passes are held to the same reference in
+tests/gpu/test_taau_lr_passes.py), and a randomly initialised model goes through the bundle chain:
+export, bundle check, emulation bit-exact to every runtime."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from mnss_kit.eval.baselines import TAAU
+from mnss_kit.model import taau
+from mnss_kit.model.families import FAMILIES, build_model, randomise_convs
+from mnss_kit.model.family import example_frame
+from mnss_kit.model.ntaau_lr import net
+from mnss_kit.model.ntaau_lr.config import NTAAULRConfig
+from mnss_kit.ops import taau as ops_taau
+from mnss_kit.ops import taau_lr
+
+ATOL = 1e-5  # torch and numpy, float32 in a different order
+
+
+def _frames(n: int, h: int = 18, w: int = 32, scale: int = 2, seed: int = 3):
+    g = torch.Generator().manual_seed(seed)
+    frames = [example_frame(FAMILIES["ntaau_lr"], h, w, scale, generator=g) for _ in range(n)]
+    for i, f in enumerate(frames):
+        f["motion"] = f["motion"] * 0.7
+        f["depth"] = 0.2 + 0.6 * f["depth"]
+        f["reset"] = torch.tensor([1.0 if i == 3 else 0.0])  # a camera cut mid-sequence
+    return frames
+
+
+def _hwc(x: torch.Tensor) -> np.ndarray:
+    return x[0].permute(1, 2, 0).detach().numpy().astype(np.float32)
+
+
+def _nchw(x: np.ndarray) -> torch.Tensor:
+    return torch.from_numpy(np.ascontiguousarray(np.moveaxis(np.asarray(x, np.float32), -1, 0)))[None]
+
+
+def _close(got: torch.Tensor, want: np.ndarray, atol: float = ATOL) -> None:
+    np.testing.assert_allclose(_hwc(got), want, atol=atol, rtol=0)
+
+
+@pytest.mark.parametrize("scale", [2, 3])
+def test_a_fresh_model_is_the_taau_baseline(scale):
+    model, baseline = build_model(NTAAULRConfig(scale=scale)), TAAU(scale)
+    state = ref_state = None
+    with torch.no_grad():
+        for frame in _frames(5, 9, 13, scale):
+            out, aux, state = model(frame, state)
+            ref, _, ref_state = baseline(frame, ref_state)
+            assert torch.equal(out, ref) and torch.equal(aux["taau"], ref)
+
+
+@pytest.mark.parametrize("size", [(18, 32), (19, 33)], ids=["even", "odd"])
+def test_evidence_matches_the_numpy_reference(size):
+    f = _frames(1, *size)[0]
+    previous = 0.2 + 0.6 * torch.rand(1, 1, *size, generator=torch.Generator().manual_seed(5))
+    config = NTAAULRConfig()
+    change, spread = net.depth_change(f["depth"], previous, f["motion"]), net.motion_spread(f["motion"])
+    want_change = taau_lr.depth_change(_hwc(f["depth"]), _hwc(previous), _hwc(f["motion"]))
+    want_spread = taau_lr.motion_spread(_hwc(f["motion"]))
+    _close(change, want_change)
+    _close(spread, want_spread)
+    _close(net.trust(change, spread, config), taau_lr.trust(want_change, want_spread, config.trust_depth, config.trust_spread_px))
+    assert (want_change > 0.1).any() and (want_change < -0.1).any()
+
+
+@pytest.mark.parametrize("size", [(18, 32), (19, 33)], ids=["even", "odd"])
+def test_the_gather_matches_the_numpy_reference(size):
+    """The 8 features, padded to an even size, and the trust map of ``Gather`` against ``ops.taau_lr``
+    on a frame with a reprojected history."""
+    model = build_model(NTAAULRConfig())
+    first, frame = _frames(2, *size)
+    with torch.no_grad():
+        _, _, state = model(first)
+        state = {k: v for k, v in state.items() if k != "depth"}
+        inputs, trust_lr, features = model.lr_gather(frame["color"], frame["depth"], first["depth"], frame["jitter"],
+                                                     frame["motion"], torch.zeros(1), state)
+    change = taau_lr.depth_change(_hwc(frame["depth"]), _hwc(first["depth"]), _hwc(frame["motion"]))
+    spread = taau_lr.motion_spread(_hwc(frame["motion"]))
+    want = taau_lr.steering_features(_hwc(frame["color"]), _hwc(inputs.history), _hwc(inputs.history_weight), change, spread,
+                                     2, model.params.max_weight)
+    assert want.shape == (size[0] + size[0] % 2, size[1] + size[1] % 2, 8)
+    _close(features, want)
+    c = model.config
+    _close(trust_lr, taau_lr.trust(change, spread, c.trust_depth, c.trust_spread_px))
+
+
+@pytest.mark.parametrize("scale", [2, 3])
+def test_the_steering_upsample_and_the_fallback_blend_match_the_numpy_reference(scale):
+    """``steer_from_lr`` (bilinear LR -> HR, the trust gating, the mapping) and ``blend`` with a
+    fallback, torch against ``ops.taau_lr`` / ``ops.taau``; the raw values span the saturated ranges."""
+    h, w = 7, 11
+    config = NTAAULRConfig(scale=scale, box_bound=1.5, filter_bound=0.2)
+    g = torch.Generator().manual_seed(scale)
+    raw, trust_lr = 3.0 * torch.randn(1, 6, h, w, generator=g), torch.rand(1, 1, h, w, generator=g)
+    steer = net.steer_from_lr(raw, trust_lr, config)
+    want = taau_lr.steer_from_lr(_hwc(raw), _hwc(trust_lr), scale, config.box_bound, config.filter_bound)
+    for name in ("history_gain", "sample_gain", "box_widen", "fallback", "filter_axis", "filter_diagonal"):
+        _close(getattr(steer, name), getattr(want, name))
+    assert (want.fallback > 0.5).any() and (want.fallback == 0.0).any()
+    params = taau.TAAUParams()
+    colour = torch.rand(1, 3, h, w, generator=g)
+    history = {"history": torch.rand(1, 3, h * scale, w * scale, generator=g),
+               "weight": params.max_weight * torch.rand(1, 1, h * scale, w * scale, generator=g)}
+    inputs = taau.taau_inputs(colour, torch.full((1, 2), 0.25), torch.randn(1, 2, h, w, generator=g), torch.zeros(1),
+                              history, scale, params)
+    out, state = taau.blend(inputs, params, steer)
+    terms = [_hwc(getattr(inputs, k)) for k in ("samples", "sample_weight", "spatial", "lo", "hi", "history", "history_weight")]
+    want_out, want_history, want_weight = ops_taau.blend(*terms, params.prior_weight, params.max_weight, want)
+    _close(out, want_out, 1e-4)
+    _close(state["history"], want_history, 1e-4)
+    _close(state["weight"], want_weight, 1e-4)
+
+
+def test_full_fallback_gives_the_bicubic_frame_and_drops_the_history():
+    params = taau.TAAUParams()
+    g = torch.Generator().manual_seed(1)
+    colour = 0.3 + 0.4 * torch.rand(1, 3, 6, 8, generator=g)
+    inputs = taau.taau_inputs(colour, torch.zeros(1, 2), torch.zeros(1, 2, 6, 8), torch.zeros(1), None, 2, params)
+    out, state = taau.blend(inputs, params, taau.Steer(fallback=torch.ones(1, 1, 12, 16)))
+    torch.testing.assert_close(out, taau.ycocg_to_rgb(inputs.spatial).clamp(0, 1), atol=1e-6, rtol=0)
+    assert torch.equal(state["weight"], torch.zeros_like(state["weight"]))
+
+
+def test_random_steering_stays_finite_and_in_range():
+    model = randomise_convs(build_model(NTAAULRConfig()), noise=2.0)
+    state = None
+    with torch.no_grad():
+        for frame in _frames(4, 19, 33):
+            out, _, state = model(frame, state)
+            assert torch.isfinite(out).all() and out.min() >= 0.0 and out.max() <= 1.0
+            assert (state["weight"] <= model.params.max_weight + 1e-6).all()
