@@ -1,7 +1,7 @@
 """Zero-mismatch check of the emulator on a real bundle: numpy kernels vs the matching runtime.
 
-    mnss-kit export mnss_x2 --out /tmp/mnss_x2_bundle --data data/train_x2 --resolution 640x360
-    python scripts/emulator_exactness.py /tmp/mnss_x2_bundle --data data/test_x2/arena_test --frames 10
+    mnss-kit export mnss_x2 --out runs/mnss_x2_bundle --data data/train_x2 --resolution 640x360
+    python scripts/emulator_exactness.py runs/mnss_x2_bundle --data data/test_x2/arena_test --frames 10
 
 For every NPU profile, runs the bundle recurrently twice (numpy NPU backend, and the runtime the
 profile reproduces: LiteRT with the matching kernel set, or ONNX Runtime) and counts int8 values

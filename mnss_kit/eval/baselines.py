@@ -59,7 +59,7 @@ class TAAU:
 
     def step(self, frame: dict, state) -> tuple[torch.Tensor, TAAUInputs, dict]:
         """One frame -> ``(output, the blend's inputs, next state)``: the inputs say what the blend
-        had to work with (``scripts/error_breakdown.py`` reads the history weight)."""
+        had to work with (``scripts/studies/error_breakdown.py`` reads the history weight)."""
         color = frame["color"]
         reset = frame.get("reset")
         reset = color.new_zeros(color.shape[0]) if reset is None else reset.to(color)

@@ -1,4 +1,4 @@
-"""scripts/error_breakdown.py: its pixel classes, and a model that is TAAU has TAAU's error in
+"""scripts/studies/error_breakdown.py: its pixel classes, and a model that is TAAU has TAAU's error in
 every class (the side-by-side TAAU is the baseline's, frame for frame)."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from mnss_kit.model.ntaau.config import NTAAUConfig
 
 from .conftest import write_panning_sequence
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "error_breakdown.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "studies" / "error_breakdown.py"
 
 
 @pytest.fixture

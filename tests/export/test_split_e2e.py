@@ -1,5 +1,5 @@
 """The split pipeline (bundle shaders on Mesa + ``npu.tflite`` in LiteRT) against the unsplit PyTorch
-model, recurrently over a sequence with a camera cut, through ``scripts/split_e2e.py``.
+model, recurrently over a sequence with a camera cut, through ``scripts/studies/split_e2e.py``.
 
 Tolerance.  The split output differs from the fp32 model by int8 quantization.  Two roundings
 are unavoidable even with every other layer exact: the NPU output to int8 steps of ``s`` (the
@@ -23,7 +23,7 @@ import pytest
 
 from mnss_kit.errors import UserError
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "split_e2e.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "studies" / "split_e2e.py"
 ERROR_STEPS = 1.0
 
 

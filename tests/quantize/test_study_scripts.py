@@ -1,4 +1,4 @@
-"""The pure helpers of scripts/quantize_study.py and scripts/int8_drift.py (the scripts themselves are long runs)."""
+"""The pure helpers of scripts/studies/quantize_study.py and scripts/studies/int8_drift.py (the scripts themselves are long runs)."""
 
 import importlib.util
 import sys
@@ -9,7 +9,7 @@ import pytest
 
 from mnss_kit.ops.warp import warp_bilinear
 
-SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
+SCRIPTS = Path(__file__).resolve().parents[2] / "scripts" / "studies"
 
 
 def _script(name: str):

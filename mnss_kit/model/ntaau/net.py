@@ -23,7 +23,7 @@ reach beyond it is bounded (a correction of at most ``correction_bound`` per cha
 weights of at most ``filter_bound``).  The filter is there because TAAU's blend differs from the
 16-sample reference in a way a small filter undoes: one fixed 3x3 filter (blurring along the axes,
 sharpening along the diagonals) fitted to TAAU's output on test_x2 raises its PSNR by 0.17 to
-0.57 dB per sequence (``scripts/display_filter_fit.py``); the net sets one per pixel.  With
+0.57 dB per sequence (``scripts/studies/display_filter_fit.py``); the net sets one per pixel.  With
 ``history_gain_min: 1`` the net cannot trust a history less than TAAU does: it rejects one only
 by narrowing the clamp box or by weighting this frame's samples more, as TAAU's own clamp does.
 

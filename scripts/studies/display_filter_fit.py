@@ -2,8 +2,8 @@
 """Why the ntaau family steers a display filter: one fixed 3x3 filter, fitted by least squares to
 the toolkit's TAAU output against the 16-sample reference, and what it is worth per sequence.
 
-    python scripts/display_filter_fit.py --data data/test_x2
-    python scripts/display_filter_fit.py --model ntaau_x2 --size 5 --apply DIR   # a model's output, 5x5
+    python scripts/studies/display_filter_fit.py --data data/test_x2
+    python scripts/studies/display_filter_fit.py --model ntaau_x2 --size 5 --apply DIR   # a model's output, 5x5
 
 Runs TAAU (or ``--model``) over the first FRAMES frames of each sequence, fits one kernel of
 ``--size`` (shared by the colour channels, every sequence at once) on frames BURN_IN and later,
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 FRAMES, BURN_IN, EVERY = 24, 8, 5  # frames per sequence; TAAU's history settles; pixel subsampling of the fit
 

@@ -2,7 +2,7 @@
 """What each steering value of an ntaau model is worth, sequence by sequence: the model run with
 one of its steering outputs held at TAAU's own value, against TAAU.
 
-    python scripts/steering_ablation.py --data data/test_x2 --model ntaau_x2
+    python scripts/studies/steering_ablation.py --data data/test_x2 --model ntaau_x2
 
 No retraining: the trained net runs unchanged and only the chosen raw outputs are replaced
 before ``taau_accumulate`` maps them (a raw 0 is TAAU's value for each: gains of 1, the clamp box
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from error_breakdown import model_and_data_args, sequences_in, squared_error  # noqa: E402

@@ -2,7 +2,7 @@
 """Where a model's remaining error is, against TAAU: squared error split by history length,
 motion and edges.
 
-    python scripts/error_breakdown.py --data data/test_x2 --model ntaau_x2
+    python scripts/studies/error_breakdown.py --data data/test_x2 --model ntaau_x2
 
 Runs the model and the toolkit's TAAU side by side over the first FRAMES frames of each
 sequence and sorts every HR pixel of every frame into a class by
@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 FRAMES = 24
 HISTORY_BINS = ((0.5, "short"), (4.0, "medium"), (np.inf, "long"))

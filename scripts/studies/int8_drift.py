@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """int8 drift over a long recurrent run: a held-out sequence played as a 1000-frame ping-pong loop.
 
-    python scripts/int8_drift.py --model mnss_x2 --calib data/train_x2 --data data/test_x2 --sequence town_test
+    python scripts/studies/int8_drift.py --model mnss_x2 --calib data/train_x2 --data data/test_x2 --sequence town_test
 
 The loop plays source frames 0..K forward, then K-1..1 backward, and again
 (period 2K), with a reset only on the very first frame: the history runs
@@ -19,7 +19,7 @@ same source frames in the same order.
 The GPU part runs in PyTorch float32, the int8 NPU stage in LiteRT (XNNPACK
 by default).  Compares the mean PSNR of the last 100 frames with that of
 frames 101-200; writes ``bench/results/int8_drift.json`` and regenerates
-``docs/quantization.md`` (``scripts/quantize_study.py``).
+``docs/studies/quantization.md`` (``scripts/studies/quantize_study.py``).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ import logging
 import sys
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
 from quantize_study import DOC, DRIFT_JSON, STUDY_JSON, plain, write_doc  # noqa: E402  (same folder)
@@ -67,7 +67,7 @@ def main(argv=None) -> int:
     if args.frames < 2 * WINDOW + 100:
         parser.error(f"--frames must be at least {2 * WINDOW + 100}")
     result = run(args)
-    result["command"] = "python scripts/int8_drift.py " + portable_command(argv if argv is not None else sys.argv[1:])
+    result["command"] = "python scripts/studies/int8_drift.py " + portable_command(argv if argv is not None else sys.argv[1:])
     atomic_write_json(args.json, plain(result))
     r = result["result"]
     print(f"int8 drift {r['int8_drift_db']:+.3f} dB, fp32 drift {r['fp32_drift_db']:+.3f} dB "
