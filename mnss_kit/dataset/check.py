@@ -12,6 +12,7 @@ exporter.  ``quick`` reads only the EXR headers.
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -21,7 +22,8 @@ import OpenEXR
 from ..errors import UserError
 from ..ops.jitter import PATTERNS, jitter_sequence, period
 from ..ops.resample import bilinear_sample, pixel_grid
-from ..ops.warp import upsample_motion, warp_bilinear
+from ..ops.scale import MAX_SCALE, MIN_SCALE, upsample_motion_to
+from ..ops.warp import warp_bilinear
 from . import exr
 from .format import BUFFERS, COLOUR_BUFFERS, META_FILE, REQUIRED_BUFFERS, SequenceMeta, buffer_path, canonical_motion, find_sequences, read_buffer, read_meta
 
@@ -144,8 +146,9 @@ class SequenceChecker:
         """Consistency of meta.json itself; False if the files cannot be checked against it."""
         m, err, warn = self.meta, self.report.error, self.report.warn
         ok = True
-        if m.scale < 2 or min(m.lr_size) < 1:
-            err(where, f"scale must be >= 2 and lr_size positive (scale {m.scale}, lr_size {m.lr_size})")
+        if not _scale_ok(m.scale) or min(m.lr_size) < 1:
+            err(where, f"scale must be an integer >= 2 or in [{MIN_SCALE}, {MAX_SCALE}], and lr_size positive "
+                       f"(scale {m.scale}, lr_size {m.lr_size})")
             ok = False
         if not m.frames:
             err(where, "no frames")
@@ -346,9 +349,10 @@ class SequenceChecker:
                 return  # already reported as a file problem
             x, y = pixel_grid(*lr.shape[:2])
             jx, jy = m.frames[t].jitter
+            rx, ry = _ratios(m)
             errs = []
             for sign in (1.0, -1.0):
-                seen = bilinear_sample(ref, (x + sign * jx) * m.scale, (y + sign * jy) * m.scale)
+                seen = bilinear_sample(ref, (x + sign * jx) * rx, (y + sign * jy) * ry)
                 errs.append(float(np.mean(np.abs(seen - lr))))
             errors.append(errs)
         if not errors or not all(np.isfinite(errors).flat):
@@ -380,7 +384,7 @@ class SequenceChecker:
             try:
                 prev = read_buffer(self.seq, m, "hr", "reference", m.frames[t - 1].index)
                 cur = read_buffer(self.seq, m, "hr", "reference", m.frames[t].index)
-                mv = upsample_motion(read_buffer(self.seq, m, "lr", "motion", m.frames[t].index), m.scale)
+                mv = upsample_motion_to(read_buffer(self.seq, m, "lr", "motion", m.frames[t].index), m.scale, m.hr_size)
             except UserError:
                 return
             errors.append([float(np.mean(np.abs(warp_bilinear(prev, mv * np.float32(v)) - cur))) for v in variants.values()])
@@ -398,6 +402,20 @@ class SequenceChecker:
             self.rel(self.seq),
             f"reprojecting the reference works better with the motion {best} (mean error {med[best]:.4f} vs {med['as recorded']:.4f}): {hint}",
         )
+
+
+def _scale_ok(scale) -> bool:
+    if isinstance(scale, int):
+        return scale >= 2
+    return math.isfinite(scale) and MIN_SCALE <= scale <= MAX_SCALE
+
+
+def _ratios(m: SequenceMeta) -> tuple[float, float]:
+    """HR pixels per LR pixel on each axis: the scale itself (an integer scale, as always), or the exact
+    per-axis ratio ``hr / lr`` (a fractional one)."""
+    if isinstance(m.scale, int):
+        return m.scale, m.scale
+    return tuple(float(r) for r in m.ratios)
 
 
 def _matches_some_phase(recorded: np.ndarray, expected: np.ndarray, p: int) -> bool:

@@ -13,6 +13,7 @@ canonical ones (``mnss_kit.ops.conventions``) by ``read_buffer``, once, here.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -23,6 +24,7 @@ from ..config import from_dict, to_dict
 from ..errors import UserError
 from ..fileio import atomic_write_json, read_json
 from ..ops import colour
+from ..ops import scale as scales
 from . import exr
 
 FORMAT_NAME = "mnss-dataset"
@@ -87,7 +89,9 @@ class SequenceMeta:
     format: str
     version: int
     name: str
-    scale: int
+    # an int (2, 3, 4), or a quality mode in [1.25, 4] (1.5, 1.7): ops.scale; lr = round_half_up(hr / s)
+    # per axis, the exact ratio of an axis being hr_size / lr_size (an integer scale: hr = s * lr exactly)
+    scale: int | float
     lr_size: tuple[int, int]  # (width, height)
     hr_size: tuple[int, int]
     jitter_pattern: str
@@ -107,10 +111,20 @@ class SequenceMeta:
             raise ValueError(f"format must be '{FORMAT_NAME}', got '{self.format}'")
         if self.version > FORMAT_VERSION:
             raise ValueError(f"dataset format version {self.version} is newer than this toolkit ({FORMAT_VERSION})")
-        lw, lh = self.lr_size
-        hw, hh = self.hr_size
-        if hw != lw * self.scale or hh != lh * self.scale:
-            raise ValueError(f"hr_size {self.hr_size} is not scale {self.scale} x lr_size {self.lr_size}")
+        if isinstance(self.scale, float) and self.scale.is_integer():
+            self.scale = int(self.scale)  # 2.0 reads as 2: the integer scale it is
+        if isinstance(self.scale, float):
+            if not (math.isfinite(self.scale) and scales.MIN_SCALE <= self.scale <= scales.MAX_SCALE):
+                raise ValueError(f"scale {self.scale} is outside [{scales.MIN_SCALE}, {scales.MAX_SCALE}]")
+        mismatch = scales.size_mismatch(self.lr_size, self.hr_size, self.scale)
+        if mismatch:
+            raise ValueError(mismatch)
+
+    @property
+    def ratios(self):
+        """The exact ``hr / lr`` of each axis ``(x, y)`` (``fractions.Fraction``; the scale itself
+        at an integer scale)."""
+        return scales.axis_ratios(self.lr_size, self.hr_size)
 
     @property
     def frame_count(self) -> int:

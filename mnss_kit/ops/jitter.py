@@ -11,15 +11,28 @@ Patterns
                per frame, wrapping inside the tile), period 12.  x3: a fixed
                9-frame order that covers the 3x3 tile, consecutive samples far
                apart.  Only scales 2 and 3.
-    ``halton`` Halton(2, 3), index starting at 1, period ``8 * s * s``.
-    ``center`` no jitter (ablation).
+    ``halton`` Halton(2, 3), index starting at 1, period ``ceil(8 * s * s)``: ``8 s^2`` at an
+               integer scale (32 at x2, as before), and at a fractional one FSR2's phase count
+               (18 at 1.5x, 24 at 1.7x, ``s`` taken as the decimal it was written as).  The count
+               grows with the number of HR pixels per LR pixel (``s^2``), so every HR pixel is
+               sampled about 8 times per cycle at every scale; it is FSR2's, so captures from an
+               engine running FSR2's jitter match this pattern phase for phase.  At a fractional
+               scale an LR pixel is no tile of whole HR pixels, so there is no sub-pixel order to
+               follow: Halton's low discrepancy is what spreads the samples.
+    ``center`` no jitter (ablation), any scale.
+
+Scales: an integer >= 2, or a fractional scale in [1.25, 4] (``ops.scale``); ``mnss`` and the
+sub-pixel functions (``subpixel_index`` and friends: MNSS's pixel insertion) take integers only.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..errors import UserError
+from . import scale as scales
 
 PATTERNS = ("mnss", "halton", "center")
 
@@ -32,13 +45,15 @@ SUBPIXEL_BORDER_TOLERANCE = 1e-4
 MNSS_X3_ORDER = ((1, 1), (0, 0), (2, 2), (0, 1), (2, 0), (1, 2), (0, 2), (2, 1), (1, 0))
 
 
-def period(pattern: str, scale: int) -> int:
+def period(pattern: str, scale: int | float) -> int:
     """Number of frames after which the pattern repeats."""
-    _check(pattern, scale)
+    scale = _check(pattern, scale)
     if pattern == "mnss":
         return 12 if scale == 2 else 9
     if pattern == "halton":
-        return 8 * scale * scale
+        if isinstance(scale, (int, np.integer)):
+            return 8 * scale * scale
+        return math.ceil(8 * scales.as_fraction(scale) ** 2)
     return 1
 
 
@@ -74,9 +89,9 @@ def mnss_subpixels(scale: int, n: int) -> np.ndarray:
     return out
 
 
-def jitter_sequence(pattern: str, scale: int, n: int) -> np.ndarray:
+def jitter_sequence(pattern: str, scale: int | float, n: int) -> np.ndarray:
     """``(n, 2)`` float64 jitter offsets ``(jx, jy)`` in LR pixels for frames ``0..n-1``."""
-    _check(pattern, scale)
+    scale = _check(pattern, scale)
     if pattern == "center":
         return np.zeros((n, 2))
     if pattern == "halton":
@@ -100,10 +115,18 @@ def subpixel_index(offset: np.ndarray, scale: int) -> np.ndarray:
     return np.clip(idx, 0, scale - 1)
 
 
-def _check(pattern: str, scale: int) -> None:
+def _check(pattern: str, scale: int | float) -> int | float:
+    """``scale`` checked for ``pattern``: an integer >= 2 as it is, a float as ``ops.scale.parse_scale``
+    gives it (an integral float becomes the int)."""
     if pattern not in PATTERNS:
         raise UserError(f"unknown jitter pattern '{pattern}' (one of {', '.join(PATTERNS)})")
-    if not isinstance(scale, (int, np.integer)) or scale < 2:
-        raise UserError(f"scale must be an integer >= 2, got {scale!r}")
+    if isinstance(scale, (float, np.floating)) and not isinstance(scale, bool):
+        scale = scales.parse_scale(float(scale))  # in [1.25, 4], finite (a UserError otherwise); 2.0 -> 2
+    if isinstance(scale, float):
+        pass
+    elif not isinstance(scale, (int, np.integer)) or isinstance(scale, bool) or scale < 2:
+        raise UserError(f"scale must be an integer >= 2 or a fraction in [{scales.MIN_SCALE}, {scales.MAX_SCALE}], got {scale!r}")
     if pattern == "mnss" and scale not in (2, 3):
-        raise UserError(f"the mnss jitter pattern exists for scales 2 and 3, not {scale}")
+        raise UserError(f"the mnss jitter pattern exists for scales 2 and 3, not {scale}"
+                        + (": use jitter: halton (or center) at a fractional scale" if isinstance(scale, float) else ""))
+    return scale

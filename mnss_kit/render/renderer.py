@@ -1,7 +1,7 @@
 """Deferred G-buffer renderer: shadow map, G-buffer, lighting, particles; LR jittered + HR reference.
 
 Per frame: one shadow map; the LR frame (jittered projection, texture mip bias
-``log2(1 / scale)``); the HR G-buffers (pixel centres, one sample); the HR
+``log2(1 / scale)``, the jitter in LR pixels at any scale); the HR G-buffers (pixel centres, one sample); the HR
 reference as the box-filtered mean of ``hr_samples`` jittered HR passes on a
 ``k x k`` stratified grid per pixel, accumulated in float32 in a fixed order.
 Optionally the references an engine would hold as its native frame:
@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..ops import native_taa
+from ..ops import scale as scales
 from ..ops.brdf import brdf_lut
 from . import gpu
 from .camera import jittered, perspective
@@ -64,15 +65,20 @@ class CameraMatrices:
 class Renderer:
     """Uploads a scene once and renders frames of it at LR and HR."""
 
-    def __init__(self, scene: Scene, lr_size: tuple[int, int], scale: int, hr_samples: int = 16,
-                 extra_references: tuple[str, ...] = ()):
+    def __init__(self, scene: Scene, lr_size: tuple[int, int], scale: int | float, hr_samples: int = 16,
+                 extra_references: tuple[str, ...] = (), hr_size: tuple[int, int] | None = None):
+        """``hr_size`` defaults to ``lr_size * scale`` (an integer scale); at a fractional scale give it
+        (``ops.scale``: ``lr = round_half_up(hr / s)``).  Both cameras see the HR aspect's view."""
         import moderngl
 
         self.scene = scene
         self.extra_references = tuple(extra_references)
         self.taa_history = None  # the native TAA's previous output: frames must come in order
         self.lr_size = tuple(lr_size)
-        self.hr_size = (lr_size[0] * scale, lr_size[1] * scale)
+        self.hr_size = tuple(hr_size) if hr_size is not None else scales.hr_size_for(lr_size, scale)
+        mismatch = scales.size_mismatch(self.lr_size, self.hr_size, scale)
+        if mismatch:
+            raise ValueError(mismatch)
         self.scale = scale
         self.grid = int(round(math.sqrt(hr_samples)))
         ctx = self.ctx = gpu.context()
@@ -126,7 +132,7 @@ class Renderer:
 
     def camera(self, t: float) -> CameraMatrices:
         s = self.scene.camera.state(t)
-        aspect = self.lr_size[0] / self.lr_size[1]
+        aspect = self.hr_size[0] / self.hr_size[1]  # the display's view (the LR one to the last bit at an integer scale)
         return CameraMatrices(s.view(), perspective(s.fov, aspect, self.scene.near, self.scene.far), s.position)
 
     def light_matrix(self, t: float, cam: CameraMatrices) -> tuple[np.ndarray, float]:

@@ -67,7 +67,7 @@ def sequence_meta(seq: SequenceConfig, scene: Scene) -> SequenceMeta:
     """Metadata of a whole sequence; depends only on the config, never on a shard."""
     times = frame_times(seq)
     jitter = jitter_sequence(seq.jitter, seq.scale, seq.frames)
-    aspect = seq.lr_size[0] / seq.lr_size[1]
+    aspect = frame_aspect(seq)
     frames = []
     for i, t in enumerate(times):
         state = scene.camera.state(float(t))
@@ -79,7 +79,7 @@ def sequence_meta(seq: SequenceConfig, scene: Scene) -> SequenceMeta:
         ))
     return SequenceMeta(
         format=FORMAT_NAME, version=FORMAT_VERSION, name=seq.name, scale=seq.scale,
-        lr_size=tuple(seq.lr_size), hr_size=seq.hr_size, jitter_pattern=seq.jitter, frames=frames,
+        lr_size=tuple(seq.lr_size), hr_size=tuple(seq.hr_size), jitter_pattern=seq.jitter, frames=frames,
         near=scene.near, far=scene.far, reverse_z=False, depth_encoding="hardware",
         motion=MotionConvention(units="pixels", points_to="previous", y_axis="down", scale=1.0),
         color_space="linear_hdr", exposure=seq.exposure,
@@ -91,6 +91,14 @@ def sequence_meta(seq: SequenceConfig, scene: Scene) -> SequenceMeta:
     )
 
 
+def frame_aspect(seq: SequenceConfig) -> float:
+    """Width / height of the view both cameras share: the display's (HR), as FSR2 renders its render
+    size over the display's field of view.  At an integer scale this is the LR aspect to the last bit
+    (``hr = s * lr`` on both axes: the same rational, correctly rounded); at a fractional one LR
+    pixels are then a little off square (753x424 over 1280x720's view), so LR and HR see the same scene."""
+    return seq.hr_size[0] / seq.hr_size[1]
+
+
 def written_buffers(seq: SequenceConfig, res: str) -> list[str]:
     """The buffers a render of ``seq`` writes at ``res``: every one, less the references it does not ask for."""
     skipped = {REFERENCE_BUFFERS[r] for r in ("taa", "4x") if r not in seq.extra_references}
@@ -98,11 +106,14 @@ def written_buffers(seq: SequenceConfig, res: str) -> list[str]:
 
 
 def _config_record(seq: SequenceConfig) -> dict:
-    """The sequence config for meta.json; without extra references the key is left out, so such a
-    render's meta.json (and dataset fingerprint) stays what it was before the key existed."""
+    """The sequence config for meta.json; without extra references the key is left out, and at an
+    integer scale ``hr_size``, so such a render's meta.json (and dataset fingerprint) stays what it
+    was before the keys existed."""
     record = to_dict(seq)
     if not seq.extra_references:
         del record["extra_references"]
+    if isinstance(seq.scale, int):  # lr_size * scale: left out, as before the key existed
+        del record["hr_size"]
     return record
 
 
@@ -207,7 +218,8 @@ def render_dataset(cfg: RenderConfig, out_dir: str | Path, shard: tuple[int, int
             if not todo:
                 continue
             bar.set_description(seq.name)
-            renderer = Renderer(scene, tuple(seq.lr_size), seq.scale, seq.hr_samples, seq.extra_references)
+            renderer = Renderer(scene, tuple(seq.lr_size), seq.scale, seq.hr_samples, seq.extra_references,
+                                hr_size=tuple(seq.hr_size))
             wanted = set(todo)
             # EXR compression of frame k overlaps with rendering frame k + 1 (one frame in flight)
             with ThreadPoolExecutor(max_workers=1) as pool:
