@@ -10,7 +10,12 @@ tensors (``docs/architecture.md``)::
     hr_<buffer> (T, C, H, W), lr_<buffer> (T, C, h, w)               optional G-buffers
 
 Crops sit at integer LR pixels, and the HR crop is the same screen area
-(offset and size times the scale), so the jitter offsets stay valid.  Values
+(offset and size times the scale), so the jitter offsets stay valid.  At a
+fractional scale (``ops.scale``) an axis maps LR to HR by its exact ratio
+``hr / lr = p / q``: an LR offset or size is a whole number of HR pixels only
+at multiples of ``q`` (2 for 72/48 = 3/2), so crop offsets are drawn on that
+grid and crop sizes must be multiples of it (a UserError names the step).  An
+axis whose ratio does not reduce (1280/753) takes whole-frame crops only.  Values
 come from ``format.read_buffer`` (canonical conventions), either straight from
 the EXR files or from the decoded cache (``cache.py``; colour then carries
 float16 rounding, below 2.5e-4 for display values).
@@ -28,6 +33,7 @@ import torch
 from torch.utils.data import Dataset
 
 from ..errors import UserError
+from ..ops import scale as scales
 from .cache import SequenceCache, dataset_fingerprint, default_cache_dir, prepare_caches, require_finite
 from .format import REQUIRED_BUFFERS, SequenceMeta, buffer_path, find_sequences, read_buffer, read_meta
 
@@ -48,6 +54,21 @@ class Crop:
 
     def scaled(self, scale: int) -> Crop:
         return Crop(self.x * scale, self.y * scale, self.width * scale, self.height * scale)
+
+    def mapped(self, ratios) -> Crop:
+        """The same screen area at exact per-axis ratios ``(hr / lr)`` (``SequenceMeta.ratios``); a
+        UserError unless every edge lands on a whole HR pixel (``ops.scale.crop_step``)."""
+        rx, ry = ratios
+        return Crop(scales.lr_to_hr(self.x, rx, "crop offset"), scales.lr_to_hr(self.y, ry, "crop offset"),
+                    scales.lr_to_hr(self.width, rx, "crop width"), scales.lr_to_hr(self.height, ry, "crop height"))
+
+
+def hr_crop(lr_crop: Crop, meta: SequenceMeta) -> Crop:
+    """The HR crop of ``lr_crop``: offset and size times the scale (an integer scale, as always), or
+    times each axis's exact ratio (a fractional one)."""
+    if isinstance(meta.scale, int):
+        return lr_crop.scaled(meta.scale)
+    return lr_crop.mapped(meta.ratios)
 
 
 class ExrFrames:
@@ -97,10 +118,10 @@ class LoadedSequence:
 
     def frames(self, start: int, count: int, lr_crop: Crop, extra_keys: dict[str, tuple[str, str]], reset_first: bool) -> dict[str, np.ndarray]:
         """Frames ``start .. start+count-1`` as float32 arrays with a leading time axis."""
-        scale = self.meta.scale
+        hr = hr_crop(lr_crop, self.meta)
         out = {}
         for key, (res, buffer) in {**BASE_KEYS, "reference": ("hr", self.reference), **extra_keys}.items():
-            crop = lr_crop if res == "lr" else lr_crop.scaled(scale)
+            crop = lr_crop if res == "lr" else hr
             out[key] = self.source.read(res, buffer, start, count, crop)
         metas = self.meta.frames[start : start + count]
         out["jitter"] = np.array([f.jitter for f in metas], dtype=np.float32).reshape(count, 2)
@@ -218,6 +239,11 @@ class WindowDataset(Dataset):
             w, h = s.meta.lr_size
             if not (0 < cw <= w and 0 < ch <= h):
                 raise UserError(f"crop {cw}x{ch} (LR pixels) does not fit sequence {s.name} of LR size {w}x{h}")
+            qx, qy = scales.crop_step(s.meta.lr_size, s.meta.hr_size)
+            if (cw % qx and cw != w) or (ch % qy and ch != h):
+                raise UserError(f"crop {cw}x{ch} (LR pixels) of sequence {s.name} (scale {s.meta.scale}, {w}x{h} -> "
+                                f"{s.meta.hr_size[0]}x{s.meta.hr_size[1]}) does not map to whole HR pixels: at its "
+                                f"ratio a crop is a multiple of {qx}x{qy} LR pixels (or the whole frame)")
         return cw, ch
 
     def __len__(self) -> int:
@@ -232,14 +258,18 @@ class WindowDataset(Dataset):
         return self.sequences[seq].name, start
 
     def crop_for(self, index: int) -> Crop:
-        """The LR crop of window ``index`` this epoch (the HR crop is ``crop.scaled(scale)``)."""
+        """The LR crop of window ``index`` this epoch (the HR crop is ``hr_crop(crop, meta)``)."""
         seq = self.sequences[self.windows[index][0]]
         if self.crop_size is None:
             return seq.full_frame()
         cw, ch = self.crop_size
         w, h = seq.meta.lr_size
         rng = np.random.default_rng([self.seed, self.epoch, index])
-        return Crop(int(rng.integers(0, w - cw + 1)), int(rng.integers(0, h - ch + 1)), cw, ch)
+        qx, qy = scales.crop_step(seq.meta.lr_size, seq.meta.hr_size)
+        if qx == 1 and qy == 1:  # an integer scale (or a ratio that is exact per LR pixel): as always
+            return Crop(int(rng.integers(0, w - cw + 1)), int(rng.integers(0, h - ch + 1)), cw, ch)
+        # offsets on the grid of LR pixels that land on whole HR pixels (ops.scale.crop_step)
+        return Crop(qx * int(rng.integers(0, (w - cw) // qx + 1)), qy * int(rng.integers(0, (h - ch) // qy + 1)), cw, ch)
 
     def __getitem__(self, index: int) -> dict[str, torch.Tensor]:
         seq, start = self.windows[index]

@@ -6,17 +6,25 @@ from pathlib import Path
 
 
 def evaluate_model(model_name: str, data_dir, methods: list[str] | None = None, max_frames: int | None = None,
-                   flip: bool = False, crops_dir=None, progress: bool = True, reference: str = "box") -> dict:
+                   flip: bool = False, crops_dir=None, progress: bool = True, reference: str = "box",
+                   scale=None) -> dict:
     """Run ``methods`` (default: the model, its no-history ablation and the baselines) over
     ``data_dir``; ``model_name`` is a checkpoint path, a shipped name or ``none``; ``reference``
-    (box, taa, 4x) the HR buffer the metrics compare against.  Returns the result of
+    (box, taa, 4x) the HR buffer the metrics compare against; ``scale`` (``--scale``, a number or its
+    text, integer or fractional) the scale the data must have.  Returns the result of
     :func:`.run.evaluate`."""
     from ..dataset import format as fmt
     from ..errors import UserError
+    from ..ops.scale import parse_scale
     from .baselines import BASELINES, baseline_methods
     from .methods import default_methods
     from .run import evaluate
 
+    wanted_scale = None if scale is None else parse_scale(scale, "--scale")
+    if wanted_scale is not None:
+        data_scale = fmt.read_meta(fmt.find_sequences(data_dir)[0]).scale
+        if data_scale != wanted_scale:
+            raise UserError(f"{data_dir}: data is x{data_scale} but --scale is {wanted_scale}")
     model, info = load_model(model_name, data_dir)
     scale = info["scale"] if info else fmt.read_meta(fmt.find_sequences(data_dir)[0]).scale
     available = default_methods(model, scale)
@@ -39,13 +47,13 @@ def load_model(name_or_path: str, data_dir: str):
     from ..dataset import format as fmt
     from ..errors import UserError
     from ..model.checkpoint import load, trained_patterns
+    from ..model.family import check_data_scale
     from ..model.macs import count_macs
 
     model, record = load(name_or_path)
     scale = int(record.get("scale") or model.scale)
     meta = fmt.read_meta(fmt.find_sequences(data_dir)[0])
-    if meta.scale != scale:
-        raise UserError(f"{data_dir}: data is x{meta.scale} but the model is x{scale}")
+    check_data_scale(record.get("family"), scale, meta.scale, str(data_dir))
     pattern = record.get("jitter_pattern")
     trained = trained_patterns(record)
     if trained and meta.jitter_pattern not in trained:

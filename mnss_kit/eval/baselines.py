@@ -11,6 +11,10 @@ evaluation loop runs these exactly like the model.
 ``FSR2``     an FSR2-class temporal upscaler (depth-clip disocclusion, thin-feature locks,
              Lanczos reconstruction, YCoCg variance clamp, optional RCAS):
              :mod:`mnss_kit.ops.fsr2`, run on the numpy reference itself.
+
+Scales: all three take an integer scale; at a fractional one (a quality mode such as 1.5x,
+``ops.scale``) only ``Bicubic`` runs so far (``FRACTIONAL_BASELINES``): TAAU and FSR2 refuse it with
+one line, and the default baselines at such a scale are the ones that take it.
 """
 
 from __future__ import annotations
@@ -18,7 +22,9 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 
-from ..model.taau import TAAUInputs, TAAUParams, bicubic_upsample, blend, taau_inputs
+from ..errors import UserError
+from ..model.taau import TAAUInputs, TAAUParams, bicubic_upsample, blend, sanitize_colour, taau_inputs
+from ..ops import scale as scales
 from ..ops.fsr2 import FSR2Params, fsr2_frame
 
 
@@ -31,12 +37,24 @@ class Bicubic:
     plain ``F.interpolate(mode="bicubic", align_corners=False)``.
     """
 
-    def __init__(self, scale: int, jitter_aware: bool = True):
-        self.scale = int(scale)
+    def __init__(self, scale: int | float, jitter_aware: bool = True):
+        # an integer scale stays the int it was (bit-identical results); a fractional one is checked
+        self.scale = int(scale) if float(scale).is_integer() else scales.parse_scale(scale)
         self.jitter_aware = jitter_aware
+        self.output_size: tuple[int, int] | None = None  # (W, H) of a fractional scale's output
+
+    def set_output_size(self, hr_size) -> None:
+        """The HR size ``(W, H)`` of the sequence about to run (the eval loop calls it): at a fractional
+        scale the output size is the data's (``lr = round(hr / s)`` has several ``hr`` per ``lr``)."""
+        self.output_size = (int(hr_size[0]), int(hr_size[1]))
 
     def upsample(self, color: torch.Tensor, jitter: torch.Tensor) -> torch.Tensor:
-        """``(N, C, h, w)`` and jitter ``(N, 2)`` LR pixels -> ``(N, C, h*s, w*s)``, not clamped."""
+        """``(N, C, h, w)`` and jitter ``(N, 2)`` LR pixels -> ``(N, C, h*s, w*s)``, not clamped; at a
+        fractional scale ``(N, C, H, W)`` of ``set_output_size`` (else ``round_half_up(h * s)``...)."""
+        if isinstance(self.scale, float):
+            h, w = color.shape[-2:]
+            size = self.output_size or scales.hr_size_for((w, h), self.scale)
+            return bicubic_resample(color, jitter if self.jitter_aware else torch.zeros_like(jitter), size)
         if not self.jitter_aware:
             return F.interpolate(color, scale_factor=self.scale, mode="bicubic", align_corners=False)
         return bicubic_upsample(color, jitter, self.scale)
@@ -45,12 +63,40 @@ class Bicubic:
         return self.upsample(frame["color"], frame["jitter"]).clamp(0.0, 1.0), {}, state
 
 
+def bicubic_resample(color: torch.Tensor, jitter: torch.Tensor, size) -> torch.Tensor:
+    """Jitter-aware bicubic at any scale (A = -0.75, clamp-to-edge), not clamped: ``(N, C, h, w)``,
+    jitter ``(N, 2)`` LR pixels -> ``(N, C, H, W)`` for ``size = (W, H)``.
+
+    The fractional-scale counterpart of ``model.taau.bicubic_upsample`` (which integer scales keep,
+    bit for bit): HR pixel centre ``X + 0.5`` sits at LR position ``(X + 0.5) * w / W`` (the exact
+    ratio of each axis), and the LR texel grid is shifted by the jitter, as there."""
+    color = sanitize_colour(color)
+    n, _, h, w = color.shape
+    width, height = int(size[0]), int(size[1])
+    xs = (torch.arange(width, dtype=torch.float64) + 0.5) * (w / width)
+    ys = (torch.arange(height, dtype=torch.float64) + 0.5) * (h / height)
+    jx = jitter[:, 0].to(torch.float64).view(n, 1, 1)
+    jy = jitter[:, 1].to(torch.float64).view(n, 1, 1)
+    gx = 2.0 * (xs.view(1, 1, -1) - jx) / w - 1.0
+    gy = 2.0 * (ys.view(1, -1, 1) - jy) / h - 1.0
+    grid = torch.stack(torch.broadcast_tensors(gx, gy), dim=-1).to(color.dtype)
+    return F.grid_sample(color, grid, mode="bicubic", padding_mode="border", align_corners=False)
+
+
+def _integer_scale(method: str, scale) -> int:
+    """``scale`` as an int, or the one-line refusal of a method that takes integer scales only."""
+    if not float(scale).is_integer():
+        raise UserError(f"the {method} baseline takes integer scales only so far, the data is x{float(scale):g} "
+                        f"(at a fractional scale: --methods {' '.join(FRACTIONAL_BASELINES)})")
+    return int(scale)
+
+
 class TAAU:
     """Temporal anti-aliasing upsampler (:mod:`mnss_kit.model.taau`; keyword arguments are its
     :class:`~mnss_kit.model.taau.TAAUParams`)."""
 
     def __init__(self, scale: int, **params):
-        self.scale = int(scale)
+        self.scale = _integer_scale("taau", scale)
         self.params = TAAUParams(**params)
 
     def __call__(self, frame: dict, state):
@@ -75,7 +121,7 @@ class FSR2:
     (one definition): tensors go to numpy and back, the state is a list of ``FSR2State``."""
 
     def __init__(self, scale: int, **params):
-        self.scale = int(scale)
+        self.scale = _integer_scale("fsr2", scale)
         self.params = FSR2Params(**params)
 
     def __call__(self, frame: dict, state):
@@ -102,8 +148,13 @@ def _hwc(x: torch.Tensor):
 
 
 BASELINES = {"bicubic": Bicubic, "taau": TAAU, "fsr2": FSR2}
+FRACTIONAL_BASELINES = ("bicubic",)  # the baselines that take a fractional scale (1.5x, 1.7x) so far
+DEFAULT_BASELINES = ("bicubic", "taau")
 
 
-def baseline_methods(scale: int, names=("bicubic", "taau")) -> dict:
-    """``{name: per-frame callable}`` for the named baselines at ``scale``."""
+def baseline_methods(scale: int | float, names=None) -> dict:
+    """``{name: per-frame callable}`` for the named baselines at ``scale``; by default bicubic and
+    taau, at a fractional scale those of them that take it (``FRACTIONAL_BASELINES``)."""
+    if names is None:
+        names = DEFAULT_BASELINES if float(scale).is_integer() else [n for n in DEFAULT_BASELINES if n in FRACTIONAL_BASELINES]
     return {name: BASELINES[name](scale) for name in names}

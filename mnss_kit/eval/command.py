@@ -35,6 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reference", choices=REFERENCES, default="box",
                         help="what the metrics compare against: box (hr/reference, the supersampled box filter; default), "
                              "taa (hr/reference_taa, an engine-style native TAA frame) or 4x (hr/reference_4x, 4 rotated-grid samples)")
+    parser.add_argument("--scale", metavar="S",
+                        help="the scale the data must have: 2, 3, 4 or a quality mode in [1.25, 4] such as 1.5 or 1.7 "
+                             "(default: the data's; at a fractional scale the default baselines are those that take it, bicubic)")
     parser.add_argument("--flip", action="store_true", help="also compute FLIP (slower)")
     parser.add_argument("--max-frames", type=_positive_int, metavar="N", help="evaluate at most N frames of each sequence")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -51,7 +54,8 @@ def run(args: argparse.Namespace) -> int:
     from .report import format_table, write_csv, write_json
 
     result = evaluate_model(args.model, args.data, args.methods, max_frames=args.max_frames, flip=args.flip,
-                            crops_dir=args.crops, progress=not args.no_progress, reference=args.reference)
+                            crops_dir=args.crops, progress=not args.no_progress, reference=args.reference,
+                            scale=args.scale)
     if args.csv:
         write_csv(args.csv, result["per_frame"])
     if args.json:

@@ -19,6 +19,7 @@ import torch
 from ..dataset import format as fmt
 from ..dataset.loader import eval_sequences
 from ..errors import UserError
+from ..ops.scale import upsample_motion_to, upsample_nearest_to
 from ..ops.warp import upsample_motion
 
 
@@ -63,12 +64,16 @@ def iter_frames(seq_dir: Path, meta: fmt.SequenceMeta, max_frames: int | None = 
         inputs = {k: v for k, v in frame.items() if k != "reference"}
         if "hr_depth" in inputs:
             hr_depth = _image(inputs["hr_depth"])
-        else:  # nearest, so object edges keep one depth or the other
+        elif isinstance(s, int):  # nearest, so object edges keep one depth or the other
             hr_depth = np.repeat(np.repeat(_image(inputs["depth"]), s, axis=0), s, axis=1)
+        else:  # a fractional scale: nearest at the exact per-axis ratio
+            hr_depth = upsample_nearest_to(_image(inputs["depth"]), s, meta.hr_size)
         if "hr_motion" in inputs:
             hr_motion = _image(inputs["hr_motion"])
-        else:
+        elif isinstance(s, int):
             hr_motion = upsample_motion(_image(inputs["motion"]), s)
+        else:
+            hr_motion = upsample_motion_to(_image(inputs["motion"]), s, meta.hr_size)
         reset = bool(inputs["reset"][0] > 0.5)
         yield EvalFrame(t, reset, inputs, _image(frame["reference"]), hr_depth, hr_motion)
 

@@ -119,7 +119,7 @@ def evaluate(
     return result
 
 
-def _common_scale(seq_dirs: list[Path], metas: list[fmt.SequenceMeta], expected: int | None) -> int:
+def _common_scale(seq_dirs: list[Path], metas: list[fmt.SequenceMeta], expected: int | float | None) -> int | float:
     scales = {m.scale for m in metas}
     if expected is not None:
         for d, m in zip(seq_dirs, metas):
@@ -137,6 +137,9 @@ def _run_sequence(
     if min(meta.hr_size) < POOL * WINDOW_SIZE:
         raise UserError(f"{seq_dir}: HR frames of {meta.hr_size[0]}x{meta.hr_size[1]} are too small to evaluate "
                         f"(IF-SSIM needs at least {POOL * WINDOW_SIZE} pixels per side)")
+    for method in methods.values():  # a fractional scale's output size is the sequence's, not lr * s
+        if hasattr(method, "set_output_size"):
+            method.set_output_size(meta.hr_size)
     tracks = {name: _MethodTrack() for name in methods}
     n = frame_count(meta, opts.max_frames)
     cuts = [t for t in range(1, n) if meta.frames[t].reset]
@@ -198,7 +201,8 @@ def _frame_row(seq: str, frame: EvalFrame, name: str, output: np.ndarray, prev_o
         "reset": int(frame.reset),
         "psnr": psnr(output, ref),
         "ssim": ssim_image(output, ref),
-        "phase_offset": phase_offset(output, ref, scale),
+        # the s x s phases of an LR pixel exist at an integer scale only
+        "phase_offset": phase_offset(output, ref, scale) if isinstance(scale, int) else math.nan,
         "if_ssim": math.nan,
         "temporal_error": math.nan,
         "disoccluded_pixels": 0,

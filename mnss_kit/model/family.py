@@ -39,6 +39,9 @@ class Family:
     history_state: str | None = None  # state key of the previous HR output (ground-truth history, crop masks)
     floor_output: str | None = None  # aux key of the image the model must beat (validation), e.g. I_U
     learned_prefixes: tuple[str, ...] = ()  # submodules whose convs ``randomise_convs`` fills
+    # the NPU stage writes the LR size rounded up to even (not the HR image): a quantized graph's
+    # output times the scale is the HR size it runs at
+    npu_output_at_lr: bool = False
 
     def frame_channels(self) -> dict[str, int]:
         """Channels of every per-frame image input: the LR buffers (``lr_<name>`` beyond the
@@ -100,3 +103,27 @@ def check_frame(frame: dict, keys: dict[str, int], scale: int, family: str) -> N
             raise UserError(f"model input '{key}' has shape {tuple(frame[key].shape)}, expected {(n, channels, *size)}")
     if tuple(frame["jitter"].shape) != (n, 2):
         raise UserError(f"model input 'jitter' has shape {tuple(frame['jitter'].shape)}, expected {(n, 2)}")
+
+
+# Why each family takes integer scales only so far (issue 44: a fractional scale, 1.5x or 1.7x, has
+# no s x s tile of HR pixels per LR pixel).  A family that learns to take any scale leaves this map.
+INTEGER_SCALE_ONLY = {
+    "mnss": "its pixel insertion puts each LR sample into one of the s x s HR pixels of its tile",
+    "fusesr": "its pixel unshuffle folds s x s HR pixels into channels",
+    "ntaau": "its steering net's outputs are pixel-shuffled by s",
+    "ntaau_lr": "its TAAU accumulation takes an integer scale so far",
+}
+
+
+def check_data_scale(family: str | None, model_scale, data_scale, where: str = "") -> None:
+    """The one-line refusal of data at a scale the model cannot run: a fractional scale for a family
+    of integer scales only (``INTEGER_SCALE_ONLY``, naming why), else any other scale than the model's."""
+    from ..errors import UserError
+
+    prefix = f"{where}: " if where else ""
+    if not float(data_scale).is_integer() and (family in INTEGER_SCALE_ONLY or family is None):
+        reason = INTEGER_SCALE_ONLY.get(family, "its layers are built for an integer scale")
+        raise UserError(f"{prefix}data is x{float(data_scale):g}, a fractional scale, and the {family or 'model'} family "
+                        f"takes integer scales only ({reason}); the model is x{model_scale}")
+    if data_scale != model_scale:
+        raise UserError(f"{prefix}data is x{data_scale} but the model is x{model_scale}")
