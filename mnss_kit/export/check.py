@@ -101,16 +101,20 @@ def _resource_size_problems(manifest: dict) -> list[str]:
 
 
 def _npu_size_problems(manifest: dict) -> list[str]:
-    """The NPU output is the HR image (export takes the bundle's size from it); its input is HR or LR."""
+    """The NPU output is the HR image (export takes the bundle's size from it) or, for a net that
+    halves its resolution at LR (ntaau_lr), the LR size rounded up to even; its input is HR or LR
+    (rounded up to even as well)."""
     tensors = {t["name"]: t for t in manifest["npu"]["tensors"]}
+    w, h = manifest["lr_size"]
+    even = [w + w % 2, h + h % 2]
     problems = []
-    for role, sizes in (("outputs", [manifest["hr_size"]]), ("inputs", [manifest["hr_size"], manifest["lr_size"]])):
+    for role, sizes in (("outputs", [manifest["hr_size"], even]), ("inputs", [manifest["hr_size"], manifest["lr_size"], even])):
         for name in manifest["npu"][role]:
             shape = tensors.get(name, {}).get("shape")
             if shape and len(shape) == 4 and [shape[2], shape[1]] not in sizes:
                 problems.append(f"manifest.json: NPU tensor '{name}' is {shape[2]}x{shape[1]}, the bundle's "
-                                f"{'hr_size' if role == 'outputs' else 'hr_size or lr_size'} is "
-                                f"{' or '.join(f'{w}x{h}' for w, h in sizes)}")
+                                f"{'hr_size' if role == 'outputs' else 'hr_size or lr_size'} (or the LR size rounded up "
+                                f"to even) is {' or '.join(f'{w}x{h}' for w, h in sizes)}")
     return problems
 
 

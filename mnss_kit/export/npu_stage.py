@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from ..model.families import family_of, npu_module
+from ..model.families import family_of, npu_input_shapes, npu_module
 from ..fileio import read_json
 
 log = logging.getLogger(__name__)
@@ -34,26 +34,22 @@ class NpuArtifacts:
     quantization: dict = field(default_factory=dict)
 
 
-def retarget(graph, module, hr_size: tuple[int, int]):
+def retarget(graph, module, hr_size: tuple[int, int], input_shapes: list[tuple[int, ...]] | None = None):
     """``graph`` (quantized, NHWC) with every activation shape traced again for an ``hr_size`` = (W, H) input.
 
     Graph inputs are images at the output size (MNSS's reconstruction net) or at a fixed fraction
     of it (FuseSR's backbone reads the LR size): each keeps its calibrated ratio to the output.
-    Quantization, constants and op structure are copied unchanged; only shapes and size options
-    follow the new trace.  ``ValueError`` if the new trace does not have the same tensors.
+    ``input_shapes`` (NCHW, ``model.families.npu_input_shapes``) replaces that rule where it does not
+    hold (ntaau_lr's net reads and writes the LR size rounded up to even).  Quantization, constants
+    and op structure are copied unchanged; only shapes and size options follow the new trace.
+    ``ValueError`` if the new trace does not have the same tensors.
     """
     import torch
 
     from ..quantize.trace import trace
 
     width, height = hr_size
-    _, out_h, out_w, _ = graph.tensors[graph.outputs[0]].shape
-    examples = []
-    for name in graph.inputs:
-        n, in_h, in_w, c = graph.tensors[name].shape
-        if (width * in_w) % out_w or (height * in_h) % out_h:
-            raise ValueError(f"input {name} ({in_w}x{in_h} for a {out_w}x{out_h} output) has no whole size at {width}x{height}")
-        examples.append(torch.zeros(n, c, height * in_h // out_h, width * in_w // out_w))
+    examples = [torch.zeros(*shape) for shape in input_shapes] if input_shapes else _examples_by_ratio(graph, hr_size)
     fresh = trace(module, examples)
     out = copy.deepcopy(graph)
     for name in out.activations():
@@ -72,6 +68,21 @@ def retarget(graph, module, hr_size: tuple[int, int]):
             op.options["size"] = twin.options["size"]
     out.validate()
     return out
+
+
+def _examples_by_ratio(graph, hr_size: tuple[int, int]) -> list:
+    """Zero NCHW inputs for an ``hr_size`` output, each input keeping its calibrated ratio to the output."""
+    import torch
+
+    width, height = hr_size
+    _, out_h, out_w, _ = graph.tensors[graph.outputs[0]].shape
+    examples = []
+    for name in graph.inputs:
+        n, in_h, in_w, c = graph.tensors[name].shape
+        if (width * in_w) % out_w or (height * in_h) % out_h:
+            raise ValueError(f"input {name} ({in_w}x{in_h} for a {out_w}x{out_h} output) has no whole size at {width}x{height}")
+        examples.append(torch.zeros(n, c, height * in_h // out_h, width * in_w // out_w))
+    return examples
 
 
 def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], method: str, progress: bool,
@@ -96,7 +107,7 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", samples_wanted, root)
         samples = quantize_api.calibration_samples(model, sequences, samples_wanted, progress=progress)
     art = quantize_module(npu_module(model), samples, QuantizeOptions(method=method), name=name)
-    graph = retarget(art.graph, npu_module(model), hr_size)
+    graph = retarget(art.graph, npu_module(model), hr_size, npu_input_shapes(model, hr_size))
     calibrated_at = list(art.graph.tensors[art.graph.outputs[0]].shape[1:3][::-1])  # the HR size, as the bundle
     report = art.report
     quantization = {

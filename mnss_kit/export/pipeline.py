@@ -61,7 +61,7 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
     model, record = checkpoint.load(ckpt)
     if npu is not None:
         _check_same_model(report, ckpt, request.model)
-    hr_size = _bundle_size(request, npu, model.scale)
+    hr_size = _bundle_size(request, npu, model.scale, family_of(model).npu_output_at_lr)
     lr_size = (hr_size[0] // model.scale, hr_size[1] // model.scale)
     if request.data is not None:  # before the slow part
         check_data(request.data, model.scale, Path(ckpt).stem, lr_size, request.golden_frames)
@@ -145,13 +145,17 @@ class _Clock:
         self.last = now
 
 
-def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int) -> tuple[int, int]:
+def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int, output_at_lr: bool = False) -> tuple[int, int]:
+    """The HR size: the quantize directory's (its NPU output is the HR image, or with ``output_at_lr``
+    the LR one), else ``--resolution`` or the default."""
     from ..split.api import DEFAULT_RESOLUTION, parse_resolution, require_scale_multiple
     from .npu_files import read_tflite
 
     if npu is not None:
         tflite = read_tflite(npu.tflite)
         _, h, w, _ = tflite.tensors[tflite.outputs[0]].shape  # the NPU's output is the HR image (its input may be LR)
+        if output_at_lr:
+            w, h = w * scale, h * scale
         if request.resolution and parse_resolution(request.resolution) != (w, h):
             raise UserError(f"the quantize directory's npu.tflite runs at {w}x{h}, not {request.resolution}; "
                             f"export from the checkpoint to quantize for another size")

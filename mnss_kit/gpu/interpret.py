@@ -134,6 +134,28 @@ def _taau_filter(p, c: Call):
     return {"display": display}
 
 
+def _taau_lr_evidence(p, c: Call):
+    return {"evidence": p.taau_lr_evidence(c.read["depth"], c.read["prev_depth"], c.read["motion"], bool(c.u("u_reset")),
+                                           c.u("u_trust_depth"), c.u("u_trust_spread_px"))}
+
+
+def _taau_lr_pack(p, c: Call):
+    return {"npu_input": p.taau_lr_pack(c.read["color"], c.read["reprojected"], c.read["evidence"], c.u("u_scale"),
+                                        c.u("u_max_weight"), c.u("u_q_scale"), c.u("u_q_zero_point"), c.profile)}
+
+
+def _taau_lr_accumulate(p, c: Call):
+    history, display = p.taau_lr_accumulate(c.read["npu_output"], c.read["color"], c.read["reprojected"], c.read["evidence"],
+                                            c.offset, c.u("u_scale"), c.u("u_q_scale"), c.u("u_q_zero_point"), c.u("u_box_bound"),
+                                            c.u("u_sample_sigma"), c.u("u_prior_weight"), c.u("u_max_weight"))
+    return {"history": history, "display": display}
+
+
+def _taau_lr_filter(p, c: Call):
+    return {"display": p.taau_lr_filter(c.read["npu_output"], c.read["history"], c.u("u_scale"), c.u("u_q_scale"),
+                                        c.u("u_q_zero_point"), c.u("u_filter_bound"))}
+
+
 def _fsr2_reconstruct(p, c: Call):
     dilated, previous_depth = p.fsr2_reconstruct(c.read["depth"], c.read["motion"], P.fsr2_params_from_uniforms(c.uniforms))
     return {"dilated": dilated, "previous_depth": previous_depth}
@@ -173,6 +195,10 @@ PASS_CALLS: dict[str, Callable[[object, Call], dict]] = {
     "taau_pack_pass": _taau_pack,
     "taau_accumulate_pass": _taau_accumulate,
     "taau_filter_pass": _taau_filter,
+    "taau_lr_evidence_pass": _taau_lr_evidence,
+    "taau_lr_pack_pass": _taau_lr_pack,
+    "taau_lr_accumulate_pass": _taau_lr_accumulate,
+    "taau_lr_filter_pass": _taau_lr_filter,
     "fsr2_reconstruct_pass": _fsr2_reconstruct,
     "fsr2_depth_clip_pass": _fsr2_depth_clip,
     "fsr2_accumulate_pass": _fsr2_accumulate,

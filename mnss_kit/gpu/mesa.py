@@ -396,6 +396,57 @@ class MesaPasses:
         self.run("taau_filter_pass", (hw, hh), res, uni)
         return self.read(display, "rgba8", 3)
 
+    # -- ntaau_lr ------------------------------------------------------------------------------
+    @_in_own_context
+    def taau_lr_evidence(self, depth, prev_depth, motion, reset: bool, trust_depth: float, trust_spread_px: float):
+        h, w = depth.shape[:2]
+        out = self.empty((w, h), "rgba32f")
+        res = {"depth": self.texture(depth, "r32f"), "prev_depth": self._placeholder() if reset else self.texture(prev_depth, "r32f"),
+               "motion": self.texture(motion, "rg32f"), "evidence": out}
+        uni = {"u_reset": int(bool(reset)), "u_trust_depth": float(trust_depth), "u_trust_spread_px": float(trust_spread_px)}
+        self.run("taau_lr_evidence_pass", (w, h), res, uni)
+        return self.read(out, "rgba32f", 4)
+
+    @_in_own_context
+    def taau_lr_pack(self, color, reprojected, evidence, scale: int, max_weight: float, q_scale: float, q_zero_point: int,
+                     profile: str):
+        h, w = color.shape[:2]
+        ph, pw = h + h % 2, w + w % 2
+        nbytes = ph * pw * 8
+        words = -(-nbytes // 4)
+        out = self.ctx.buffer(reserve=words * 4)
+        res = {"color": self.texture(color, "rgba16f"), "reprojected": self.texture(reprojected, "rgba16f"),
+               "evidence": self.texture(evidence, "rgba32f"), "npu_input": out}
+        uni = {"u_scale": scale, "u_max_weight": float(max_weight), "u_word_count": words,
+               **P.quantize_uniforms(q_scale, q_zero_point, profile)}
+        self.run("taau_lr_pack_pass", (words,), res, uni)
+        return np.frombuffer(out.read(), dtype=np.int8)[:nbytes].reshape(1, ph, pw, 8).copy()
+
+    @_in_own_context
+    def taau_lr_accumulate(self, npu_output, color, reprojected, evidence, jitter, scale: int, q_scale: float, q_zero_point: int,
+                           box_bound: float, sample_sigma: float, prior_weight: float, max_weight: float):
+        h, w = color.shape[:2]
+        history, display = self.empty((w * scale, h * scale), "rgba16f"), self.empty((w * scale, h * scale), "rgba8")
+        res = {"npu_output": self.ctx.buffer(_packed_int8(npu_output)), "color": self.texture(color, "rgba16f"),
+               "reprojected": self.texture(reprojected, "rgba16f"), "evidence": self.texture(evidence, "rgba32f"),
+               "history": history, "display": display}
+        uni = {"u_scale": scale, "u_jitter": _vec2(jitter), "u_q_scale": float(np.float32(q_scale)),
+               "u_q_zero_point": int(q_zero_point), "u_box_bound": float(box_bound), "u_sample_sigma": float(sample_sigma),
+               "u_prior_weight": float(prior_weight), "u_max_weight": float(max_weight)}
+        self.run("taau_lr_accumulate_pass", (w * scale, h * scale), res, uni)
+        return self.read(history, "rgba16f", 4), self.read(display, "rgba8", 3)
+
+    @_in_own_context
+    def taau_lr_filter(self, npu_output, history, scale: int, q_scale: float, q_zero_point: int, filter_bound: float):
+        hh, hw = history.shape[:2]
+        display = self.empty((hw, hh), "rgba8")
+        res = {"npu_output": self.ctx.buffer(_packed_int8(npu_output)), "history": self.texture(history, "rgba16f"),
+               "display": display}
+        uni = {"u_scale": scale, "u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point),
+               "u_filter_bound": float(filter_bound)}
+        self.run("taau_lr_filter_pass", (hw, hh), res, uni)
+        return self.read(display, "rgba8", 3)
+
     # -- fsr2 ----------------------------------------------------------------------------------
     @_in_own_context
     def fsr2_reconstruct(self, depth, motion, params):

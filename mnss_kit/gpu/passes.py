@@ -171,6 +171,35 @@ PASSES = {
             ("u_scale", "u_q_scale", "u_q_zero_point", "u_correction_bound", "u_filter_bound", "u_filter_falloff"),
             exact=False,
         ),
+        # ntaau_lr: the evidence at LR, the LR features packed, the accumulation steered from LR (exp, tanh: float paths)
+        Pass(
+            "taau_lr_evidence_pass", (8, 8, 1), "lr",
+            (_s("depth", 0, "r32f"), _s("prev_depth", 1, "r32f"), _s("motion", 2, "rg32f"), _i("evidence", 0, "rgba32f")),
+            ("u_reset", "u_trust_depth", "u_trust_spread_px"),
+            exact=False,
+        ),
+        Pass(
+            "taau_lr_pack_pass", (64, 1, 1), "words",
+            (_s("color", 0, "rgba16f"), _s("reprojected", 1, "rgba16f"), _s("evidence", 2, "rgba32f"),
+             _b("npu_input", 0, "uint[]")),
+            ("u_scale", "u_max_weight", "u_word_count", "u_q_scale", "u_q_reciprocal", "u_q_use_reciprocal", "u_q_rounding",
+             "u_q_zero_point"),
+            exact=False,
+        ),
+        Pass(
+            "taau_lr_accumulate_pass", (8, 8, 1), "hr",
+            (_b("npu_output", 0, "uint[]"), _s("color", 0, "rgba16f"), _s("reprojected", 1, "rgba16f"),
+             _s("evidence", 2, "rgba32f"), _i("history", 0, HISTORY_FORMAT), _i("display", 1, DISPLAY_FORMAT)),
+            ("u_scale", "u_jitter", "u_q_scale", "u_q_zero_point", "u_box_bound", "u_sample_sigma", "u_prior_weight",
+             "u_max_weight"),
+            exact=False,
+        ),
+        Pass(
+            "taau_lr_filter_pass", (8, 8, 1), "hr",
+            (_b("npu_output", 0, "uint[]"), _s("history", 0, HISTORY_FORMAT), _i("display", 0, DISPLAY_FORMAT)),
+            ("u_scale", "u_q_scale", "u_q_zero_point", "u_filter_bound"),
+            exact=False,
+        ),
         # fsr2: the FSR2-class baseline upscaler (ops.fsr2), GPU only; float paths (sin, sqrt)
         Pass(
             "fsr2_reconstruct_pass", (8, 8, 1), "lr",

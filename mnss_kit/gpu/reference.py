@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ops import demodulation, fsr2, inpaint, sharpen, subpixel, taau, warp
+from ..ops import demodulation, fsr2, inpaint, sharpen, subpixel, taau, taau_lr, warp
 from ..ops.sanitize import sanitize_colour, sanitize_depth, sanitize_motion
 from ..ops.int8 import quantize as quant
 from ..ops.resample import avgpool
@@ -190,6 +190,46 @@ class ReferencePasses:
         gain = taau.filter_gain(sanitize_motion(motion), scale, filter_falloff)
         steer = taau.steer_from_raw(raw, correction_bound, 0.0, filter_bound, filter_scale=gain)
         return encode_unorm8(taau.display(to_half(history)[..., :3], steer))
+
+    # -- ntaau_lr ------------------------------------------------------------------------------
+    def taau_lr_evidence(self, depth, prev_depth, motion, reset: bool, trust_depth: float, trust_spread_px: float):
+        """taau_lr_evidence_pass.  depth, prev_depth (h,w,1), motion (h,w,2) -> (h,w,4) float32: the
+        depth change, the motion spread, the trust, 0 (``ops.taau_lr.evidence``); on a reset this
+        frame's depth stands in for the previous one (``prev_depth`` unused)."""
+        depth = sanitize_depth(np.asarray(depth, np.float32))
+        previous = depth if reset else sanitize_depth(np.asarray(prev_depth, np.float32))
+        return taau_lr.evidence(depth, previous, sanitize_motion(np.asarray(motion, np.float32)), float(np.float32(trust_depth)),
+                                float(np.float32(trust_spread_px)))
+
+    def taau_lr_pack(self, color, reprojected, evidence, scale: int, max_weight: float, q_scale: float, q_zero_point: int,
+                     profile: str):
+        """taau_lr_pack_pass -> the int8 NPU input (1,h',w',8), h' and w' even: ``ops.taau_lr.steering_features``
+        quantized as ``ops.int8.quantize.quantize`` under ``profile``."""
+        r, e = to_half(reprojected), np.asarray(evidence, np.float32)
+        features = taau_lr.steering_features(sanitize_colour(to_half(color)), r[..., :3], r[..., 3:], e[..., 0:1], e[..., 1:2],
+                                             scale, max_weight)
+        return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]
+
+    def taau_lr_accumulate(self, npu_output, color, reprojected, evidence, jitter, scale: int, q_scale: float, q_zero_point: int,
+                           box_bound: float, sample_sigma: float, prior_weight: float, max_weight: float):
+        """taau_lr_accumulate_pass.  npu_output (1,h',w',6) int8 raw LR steering, color (h,w,3), reprojected
+        (H,W,4), evidence (h,w,4) -> (history (H,W,4) fp16 values: the blend and its weight, display (H,W,3)
+        uint8 codes of the blend, without the display filter)."""
+        h, w = np.asarray(color).shape[:2]
+        raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0, :h, :w]
+        steer = taau_lr.steer_from_lr(raw, np.asarray(evidence, np.float32)[..., 2:3], scale, box_bound, 0.0)
+        terms = taau.current_terms(sanitize_colour(to_half(color)), as_jitter(jitter), scale, sample_sigma)
+        r = to_half(reprojected)
+        _, history, weight = taau.blend(*terms, r[..., :3], r[..., 3:], prior_weight, max_weight, steer)
+        return to_half(np.concatenate([history, weight], axis=-1)), encode_unorm8(history)
+
+    def taau_lr_filter(self, npu_output, history, scale: int, q_scale: float, q_zero_point: int, filter_bound: float):
+        """taau_lr_filter_pass.  npu_output (1,h',w',6) int8 raw LR steering, history (H,W,4) this frame's
+        blend -> display (H,W,3) uint8 codes: the blend through the steered filter (``ops.taau_lr.filter_weights``)."""
+        h, w = history.shape[0] // scale, history.shape[1] // scale
+        raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0, :h, :w]
+        axis, diagonal = taau_lr.filter_weights(raw, scale, filter_bound)
+        return encode_unorm8(taau.display(to_half(history)[..., :3], taau.Steer(filter_axis=axis, filter_diagonal=diagonal)))
 
     # -- fsr2 ----------------------------------------------------------------------------------
     def fsr2_reconstruct(self, depth, motion, params: fsr2.FSR2Params):

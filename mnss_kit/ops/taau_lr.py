@@ -18,8 +18,6 @@ from .warp import warp_bilinear
 
 DEPTH_FLOOR = 1e-4  # depth below which the relative change is taken against this (model.ntaau_lr.net)
 SPREAD_CAP = 4.0  # the motion spread feature is capped here (LR pixels)
-FEATURES = 8  # per LR pixel: colour (3), luma gap, clamp distance, history weight, depth change, spread
-STEER_CHANNELS = 6  # history gain, sample gain, box widening, fallback, filter axis, filter diagonal
 
 
 def nearest_depth(previous: np.ndarray) -> np.ndarray:
@@ -90,7 +88,7 @@ def steer_from_lr(raw: np.ndarray, trust_lr: np.ndarray, scale: int, box_bound: 
     both = np.concatenate([np.asarray(raw, np.float32), np.asarray(trust_lr, np.float32)], axis=-1)
     hr = upsample_bilinear(both, scale)
     allowed = hr[..., 6:7]
-    sigmoid = lambda x: 1.0 / (1.0 + np.exp(-x))  # noqa: E731
+    sigmoid = lambda x: 1.0 / (1.0 + np.exp(-np.clip(x, -80.0, 80.0)))  # noqa: E731  (no overflow; same values)
     history_gain = 2.0 * sigmoid(hr[..., 0:1])
     history_gain = np.where(history_gain > 1.0, 1.0 + (history_gain - 1.0) * allowed, history_gain)
     widen = box_widening(hr[..., 2:3], box_bound)

@@ -5,6 +5,7 @@ each part lives.
     config.py    the ``model:`` section (:class:`~.config.NTAAULRConfig`)
     net.py       the torch model and its stages: lr_gather, steer, lr_accumulate
     costs.py     fixed-function MACs per stage
+    gpu_plan.py  the bundle's GPU side: passes, resources, per-frame schedule
 
 The loss is ``model.losses.DisplayLoss``.
 """
@@ -29,9 +30,9 @@ def _loss(config: NTAAULRConfig, train):
 
 
 def _gpu_plan(config: NTAAULRConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
-    from ...errors import UserError
+    from .gpu_plan import bundle_gpu_plan
 
-    raise UserError("the ntaau_lr family has no GPU passes in a bundle yet: export an ntaau or mnss model")
+    return bundle_gpu_plan(config, state_dict, lr_size, npu, profile)
 
 
 NTAAU_LR_FAMILY = Family(
@@ -46,4 +47,5 @@ NTAAU_LR_FAMILY = Family(
     history_state="history",
     floor_output="taau",
     learned_prefixes=("steer",),
+    npu_output_at_lr=True,
 )

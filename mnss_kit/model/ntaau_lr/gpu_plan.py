@@ -1,0 +1,119 @@
+"""The ntaau_lr family's GPU side of a bundle: shaders used, resources, frame schedule.
+
+Per frame: ``taau_reproject_pass`` (ntaau's: the previous blend and its weight warped to this
+frame; weight 0 on a reset), ``taau_lr_evidence_pass`` (depth change, motion spread and trust at
+LR, from this depth and the last), ``taau_lr_pack_pass`` (the int8 NPU input at LR, padded to an
+even size), the NPU steering net, ``taau_lr_accumulate_pass`` (the steering upsampled to HR, the
+blend with its fallback: the next history and the display) and, when the net steers a display
+filter, ``taau_lr_filter_pass``.  At the end of the frame ``depth`` and ``prev_depth`` swap: this
+frame's depth is the next one's previous depth, without a copy.  No learned weights run on the GPU.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...gpu import passes as P
+from ...gpu.plan import const, pass_entries, per_frame, quantize_uniforms, step
+from ..taau import TAAUParams
+from .config import FEATURE_CHANNELS as FEATURES, STEER_CHANNELS, NTAAULRConfig
+
+PASSES_USED = ("taau_reproject_pass", "taau_lr_evidence_pass", "taau_lr_pack_pass", "taau_lr_accumulate_pass")
+FILTER_PASS = "taau_lr_filter_pass"
+
+
+def passes_used(config: NTAAULRConfig) -> set[str]:
+    return set(PASSES_USED) | ({FILTER_PASS} if config.filter_bound > 0 else set())
+
+
+def bundle_gpu_plan(config: NTAAULRConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
+    """The family record's ``gpu_plan``: passes, weight blocks (none), resources and schedule."""
+    return {"passes": pass_entries(passes_used(config)), "weights": [], "resources": resources(config, lr_size),
+            "schedule": schedule(config, lr_size, npu, profile)}
+
+
+def npu_size(lr_size: tuple[int, int]) -> tuple[int, int]:
+    """``[width, height]`` of the NPU tensors: the LR size rounded up to even (the net halves it once)."""
+    w, h = lr_size
+    return w + w % 2, h + h % 2
+
+
+def tensor_words(lr_size: tuple[int, int], channels: int) -> int:
+    """32-bit words of an int8 NHWC (1, h', w', ``channels``) tensor at the even LR size."""
+    w, h = npu_size(lr_size)
+    return -(-w * h * channels // 4)
+
+
+def _tex(name, size, fmt, role, note, channels):
+    return {"name": name, "kind": "texture2d", "size": size, "format": fmt, "channels": channels, "role": role,
+            "description": note}
+
+
+def _buf(name, words, note):
+    return {"name": name, "kind": "buffer", "bytes": words * 4, "words": words, "element": "uint", "role": "boundary",
+            "description": note}
+
+
+def resources(config: NTAAULRConfig, lr_size: tuple[int, int]) -> list[dict]:
+    """Every texture and buffer a phone keeps for the schedule.  Sizes are ``[width, height]``."""
+    w, h = lr_size
+    hr, lr = [w * config.scale, h * config.scale], [w, h]
+    return [
+        _tex("color", lr, P.INPUT_FORMATS["color"], "input", "jittered LR colour, display values in [0, 1]", 3),
+        _tex("depth", lr, P.INPUT_FORMATS["depth"], "input", "LR depth, linear in [0, 1]; swaps with prev_depth at the end of "
+             "the frame", 1),
+        _tex("motion", lr, P.INPUT_FORMATS["motion"], "input", "LR motion in LR pixels, pointing to the previous frame", 2),
+        _tex("prev_depth", lr, P.INPUT_FORMATS["depth"], "state", "the previous frame's depth (the depth texture of the last "
+             "frame)", 1),
+        _tex("history", hr, P.HISTORY_FORMAT, "state", "the previous blend (rgb) and its accumulated weight (a)", 4),
+        _tex("reprojected", hr, "rgba16f", "intermediate", "the history warped to this frame (YCoCg) and its weight", 4),
+        _tex("evidence", lr, "rgba32f", "intermediate", "depth change, motion spread, trust at LR", 4),
+        _buf("npu_input", tensor_words(lr_size, FEATURES), f"int8 NHWC (1, h', w', {FEATURES}) NPU input at the LR size rounded "
+             "up to even, 4 bytes per word, little-endian"),
+        _buf("npu_output", tensor_words(lr_size, STEER_CHANNELS),
+             f"int8 NHWC (1, h', w', {STEER_CHANNELS}) raw steering at LR from the NPU, 4 bytes per word, little-endian"),
+        _tex("display", hr, P.DISPLAY_FORMAT, "output", "the frame to show (8-bit codes)", 3),
+    ]
+
+
+def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
+    """The per-frame steps.  ``npu``: ``{"model", "input", "output", "input_q", "output_q"}``."""
+    s = config.scale
+    params = TAAUParams(alpha=config.alpha)
+    a = dict(lr_size=lr_size, scale=s)
+    words = tensor_words(lr_size, FEATURES)
+    out_scale, out_zp = npu["output_q"]
+    dequantize = {"u_q_scale": const(float(np.float32(out_scale))), "u_q_zero_point": const(int(out_zp))}
+    steps = [
+        step("taau_reproject_pass", "reproject history", "lr_gather",
+             {"history": "history", "motion": "motion", "reprojected": "reprojected"},
+             {"u_scale": const(s), "u_reset": per_frame("reset"), "u_blur_penalty": const(params.blur_penalty)}, **a),
+        step("taau_lr_evidence_pass", "depth change, motion spread, trust", "lr_gather",
+             {"depth": "depth", "prev_depth": "prev_depth", "motion": "motion", "evidence": "evidence"},
+             {"u_reset": per_frame("reset"), "u_trust_depth": const(config.trust_depth),
+              "u_trust_spread_px": const(config.trust_spread_px)}, **a),
+        step("taau_lr_pack_pass", "steering features + pack", "lr_gather",
+             {"color": "color", "reprojected": "reprojected", "evidence": "evidence", "npu_input": "npu_input"},
+             {"u_scale": const(s), "u_max_weight": const(params.max_weight), "u_word_count": const(words),
+              **quantize_uniforms(*npu["input_q"], profile)}, words=words, **a),
+        {"kind": "npu", "label": "steering net", "stage": "steer", "model": npu["model"],
+         "inputs": {npu["input"]: "npu_input"}, "outputs": {npu["output"]: "npu_output"}},
+        step("taau_lr_accumulate_pass", "steered accumulation", "lr_accumulate",
+             {"npu_output": "npu_output", "color": "color", "reprojected": "reprojected", "evidence": "evidence",
+              "history": "history", "display": "display"},
+             {"u_scale": const(s), "u_jitter": per_frame("offset"), **dequantize, "u_box_bound": const(config.box_bound),
+              "u_sample_sigma": const(params.sample_sigma), "u_prior_weight": const(params.prior_weight),
+              "u_max_weight": const(params.max_weight)}, **a),
+    ]
+    if config.filter_bound > 0:
+        steps.append(step(FILTER_PASS, "display filter", "lr_accumulate",
+                          {"npu_output": "npu_output", "history": "history", "display": "display"},
+                          {"u_scale": const(s), **dequantize, "u_filter_bound": const(config.filter_bound)}, **a))
+    return {
+        "steps": steps,
+        "end_of_frame": [{"swap": ["depth", "prev_depth"]}],
+        "reset": "on a reset frame taau_reproject_pass gets u_reset = 1 (the history keeps zero weight) and "
+                 "taau_lr_evidence_pass reads this frame's depth for the previous one",
+        "barriers": "glMemoryBarrier between GPU steps; around the NPU step the GPU's writes to npu_input must be visible "
+                    "to the NPU, and the NPU's npu_output to the GPU (fence)",
+    }

@@ -1,0 +1,71 @@
+#version 310 es
+// taau_lr_accumulate_pass: one invocation per HR texel.
+//   in   npu_output   std430 uint[]  int8 NHWC (1, h', w', 6): the steering net's raw output at LR
+//                                    (h', w' the even size; the first h x w pixels are read)
+//        color        LR rgba16f     jittered LR colour, display values
+//        reprojected  HR rgba16f     taau_reproject_pass
+//        evidence     LR rgba32f     taau_lr_evidence_pass (the trust, b)
+//   out  history      HR rgba16f     the blend (rgb) and its accumulated weight (a)
+//        display      HR rgba8       the blend as 8-bit display codes (taau_lr_filter_pass replaces
+//                                    it in models with a display filter)
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+precision highp image2D;
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(std430, binding = 0) readonly buffer NpuOutput { uint npu_output[]; };
+layout(binding = 0) uniform highp sampler2D color;
+layout(binding = 1) uniform highp sampler2D reprojected;
+layout(binding = 2) uniform highp sampler2D evidence;
+layout(rgba16f, binding = 0) uniform writeonly highp image2D history;
+layout(rgba8, binding = 1) uniform writeonly highp image2D display;
+
+uniform int u_scale;
+uniform vec2 u_jitter;
+uniform float u_q_scale;
+uniform int u_q_zero_point;
+uniform float u_box_bound;
+uniform float u_sample_sigma;
+uniform float u_prior_weight;
+uniform float u_max_weight;
+
+#include "display.glsl"
+#include "taau_lr.glsl"
+
+const int STEER_CHANNELS = 6;
+
+// Raw value `c` of LR texel `p` (c < 6), or its trust (c == 6).
+float lr_value(ivec2 p, int c) {
+    if (c == STEER_CHANNELS) {
+        return texelFetch(evidence, p, 0).b;
+    }
+    ivec2 lr_size = textureSize(color, 0);
+    int b = (p.y * (lr_size.x + lr_size.x % 2) + p.x) * STEER_CHANNELS + c;
+    return dequantize_int8(int8_of_word(npu_output[b / 4], b % 4), u_q_scale, u_q_zero_point);
+}
+
+float upsampled_at(BilinearTaps t, int c) {
+    return upsampled(lr_value(t.lo, c), lr_value(ivec2(t.hi.x, t.lo.y), c), lr_value(ivec2(t.lo.x, t.hi.y), c),
+                     lr_value(t.hi, c), t.frac);
+}
+
+void main() {
+    ivec2 hr = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(history);
+    if (any(greaterThanEqual(hr, size))) {
+        return;
+    }
+    BilinearTaps t = upsample_taps(hr, u_scale, textureSize(color, 0));
+    float raw[6];
+    for (int c = 0; c < 6; c++) {
+        raw[c] = upsampled_at(t, c);
+    }
+    LrSteer s = steer_from_lr(raw, upsampled_at(t, STEER_CHANNELS), u_box_bound);
+    Neighbourhood n = neighbourhood_at(color, hr, u_jitter, u_scale, u_sample_sigma);
+    vec3 spatial = spatial_at(color, hr, u_jitter, u_scale);
+    vec4 blended = fallback_blend(n, spatial, texelFetch(reprojected, hr, 0), s, u_prior_weight, u_max_weight);
+    imageStore(history, hr, round_to_half(blended));
+    imageStore(display, hr, encode_unorm8(vec4(blended.rgb, 1.0)));
+}

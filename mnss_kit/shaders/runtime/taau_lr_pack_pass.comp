@@ -1,0 +1,95 @@
+#version 310 es
+// taau_lr_pack_pass: one invocation per 32-bit word of the NPU input tensor.
+//   in   color        LR rgba16f     jittered LR colour, display values
+//        reprojected  HR rgba16f     taau_reproject_pass
+//        evidence     LR rgba32f     taau_lr_evidence_pass
+//   out  npu_input    std430 uint[]  int8 NHWC (1, h', w', 8), h' and w' the LR size rounded up to
+//                                    even (edge pixels repeated): the LR colour, the clamped
+//                                    history's luma minus the colour's, the clamp distance, the
+//                                    history weight / u_max_weight (each the mean over the s x s HR
+//                                    block), the depth change, the motion spread (at most 4)
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+
+layout(local_size_x = 64) in;
+
+layout(binding = 0) uniform highp sampler2D color;
+layout(binding = 1) uniform highp sampler2D reprojected;
+layout(binding = 2) uniform highp sampler2D evidence;
+layout(std430, binding = 0) writeonly buffer NpuInput { uint npu_input[]; };
+
+uniform int u_scale;
+uniform float u_max_weight;
+uniform int u_word_count;
+uniform float u_q_scale;
+uniform float u_q_reciprocal;
+uniform int u_q_use_reciprocal;
+uniform int u_q_rounding;
+uniform int u_q_zero_point;
+
+#include "quant.glsl"
+#include "taau_lr.glsl"
+
+const int CHANNELS = 8;
+
+// The mean over LR texel `p`'s HR block of the clamped history's luma (x), the clamp distance (y)
+// and the history weight (z) (ops.taau_lr.steering_features).
+vec3 block_means(ivec2 p) {
+    ivec2 last = textureSize(color, 0) - 1;
+    vec3 lo = vec3(1e30);
+    vec3 hi = vec3(-1e30);
+    for (int dy = -1; dy <= 1; dy++) {
+        for (int dx = -1; dx <= 1; dx++) {
+            vec3 v = rgb_to_ycocg(colour_texel(color, clamp(p + ivec2(dx, dy), ivec2(0), last)));
+            lo = min(lo, v);
+            hi = max(hi, v);
+        }
+    }
+    vec3 sum = vec3(0.0);
+    for (int sy = 0; sy < u_scale; sy++) {
+        for (int sx = 0; sx < u_scale; sx++) {
+            vec4 history = texelFetch(reprojected, p * u_scale + ivec2(sx, sy), 0);
+            vec3 clamped = min(max(history.rgb, lo), hi);
+            vec3 d = abs(history.rgb - clamped);
+            sum += vec3(clamped.x, d.x + d.y + d.z, history.a);
+        }
+    }
+    return sum / float(u_scale * u_scale);
+}
+
+// Channel `c` of LR texel `p` (already clamped into the image: the padding repeats the edge).
+float feature(ivec2 p, int c) {
+    vec3 colour = colour_texel(color, p);
+    if (c < 3) return colour[c];
+    if (c >= 6) {
+        vec4 e = texelFetch(evidence, p, 0);
+        return c == 6 ? e.r : min(e.g, SPREAD_CAP);
+    }
+    vec3 means = block_means(p);
+    if (c == 3) return means.x - rgb_to_ycocg(colour).x;
+    if (c == 4) return means.y;
+    return means.z / u_max_weight;
+}
+
+void main() {
+    int i = int(gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x + gl_GlobalInvocationID.x);
+    if (i >= u_word_count) {
+        return;
+    }
+    QuantParams q = QuantParams(u_q_scale, u_q_reciprocal, u_q_use_reciprocal != 0, u_q_rounding, u_q_zero_point);
+    ivec2 lr_size = textureSize(color, 0);
+    ivec2 padded = lr_size + lr_size % 2;
+    int total = padded.x * padded.y * CHANNELS;
+    uint word = 0u;
+    for (int k = 0; k < 4; k++) {
+        int b = 4 * i + k;
+        if (b >= total) {
+            break;
+        }
+        int pixel = b / CHANNELS;
+        ivec2 p = min(ivec2(pixel % padded.x, pixel / padded.x), lr_size - 1);
+        word |= word_of_int8(quantize_int8(feature(p, b % CHANNELS), q), k);
+    }
+    npu_input[i] = word;
+}

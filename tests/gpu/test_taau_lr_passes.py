@@ -1,0 +1,87 @@
+"""The ntaau_lr family's GPU passes on Mesa (EGL) against their numpy reference (``ops.taau_lr``
+through ``ReferencePasses``): the evidence (with a reset), the LR feature pack padded to an even
+size, the accumulation steered from LR (bilinear upsample, trust gating, fallback) and the display
+filter, at even and odd LR sizes.  exp, tanh and a division: held to the ntaau passes' tolerances."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from gpu_helpers import assert_float_close, pattern_jitters, random_frame
+
+from mnss_kit.gpu.reference import to_half
+from mnss_kit.model.taau import TAAUParams
+
+SIZES = [(5, 7), (6, 8)]  # LR (h, w): odd (padded to even, partial workgroups) and even
+TOLERANCE = 2e-3  # as tests/gpu/test_taau_passes.py: a few fp16 steps, exp and tanh differ by a few ULP
+PARAMS = TAAUParams()
+TRUST = (0.1, 1.0)  # trust_depth, trust_spread_px
+
+
+def _history(rng, h, w, scale):
+    colour = rng.random((h * scale, w * scale, 3), dtype=np.float32)
+    weight = rng.uniform(0, PARAMS.max_weight, (h * scale, w * scale, 1)).astype(np.float32)
+    return to_half(np.concatenate([colour, weight], axis=-1))
+
+
+def _frame(ref, seed, h, w, scale):
+    """A random frame (depth near the previous one, so trust spans [0, 1]), its reprojected history and evidence."""
+    rng = np.random.default_rng(seed)
+    f = random_frame(rng, h, w, scale)
+    f["motion"][:, : w // 2] = np.float32(0.3) + f["motion"][:, : w // 2] * np.float32(0.02)  # still enough to trust
+    f["depth"] = (0.3 + 0.1 * f["depth"]).astype(np.float32)
+    f["prev_depth"] = f["depth"] * rng.uniform(0.99, 1.01, f["depth"].shape).astype(np.float32)
+    f["prev_depth"][: h // 2] *= np.float32(0.5)  # the upper half was nearer: disoccluded now
+    f["reprojected"] = ref.taau_reproject(_history(rng, h, w, scale), f["motion"], scale, False, PARAMS.blur_penalty)
+    f["evidence"] = ref.taau_lr_evidence(f["depth"], f["prev_depth"], f["motion"], False, *TRUST)
+    return rng, f
+
+
+@pytest.mark.parametrize("size", SIZES, ids=["odd", "even"])
+def test_evidence_matches_reference(mesa, ref, size):
+    _, f = _frame(ref, 1, *size, 2)
+    for reset in (False, True):
+        args = (f["depth"], f["prev_depth"], f["motion"], reset, *TRUST)
+        got, want = mesa.taau_lr_evidence(*args), ref.taau_lr_evidence(*args)
+        assert_float_close(got, want, 1e-5)
+    trust = f["evidence"][..., 2]
+    assert (trust == 0).any() and (trust > 0.5).any()
+
+
+@pytest.mark.parametrize("size", SIZES, ids=["odd", "even"])
+@pytest.mark.parametrize("scale", [2, 3])
+@pytest.mark.parametrize("profile", ["tflite-ref", "ort-cpu"])
+def test_pack_matches_reference_within_one_step(mesa, ref, size, scale, profile):
+    _, f = _frame(ref, 11 * scale, *size, scale)
+    args = (f["color"], f["reprojected"], f["evidence"], scale, PARAMS.max_weight, 1.0 / 100.0, -20, profile)
+    got, want = mesa.taau_lr_pack(*args), ref.taau_lr_pack(*args)
+    assert got.shape == want.shape == (1, size[0] + size[0] % 2, size[1] + size[1] % 2, 8)
+    diff = np.abs(got.astype(int) - want.astype(int))
+    assert diff.max() <= 1 and (diff > 0).mean() < 0.01  # block means and a division: not correctly rounded
+
+
+@pytest.mark.parametrize("size", SIZES, ids=["odd", "even"])
+@pytest.mark.parametrize("scale", [2, 3])
+def test_steered_accumulation_matches_reference(mesa, ref, size, scale):
+    rng, f = _frame(ref, 7 * scale, *size, scale)
+    h, w = size
+    steering = rng.integers(-128, 128, (1, h + h % 2, w + w % 2, 6)).astype(np.int8)
+    for jitter in pattern_jitters("mnss", scale)[:2]:
+        args = (steering, f["color"], f["reprojected"], f["evidence"], jitter, scale, 0.03, 3, 1.5, PARAMS.sample_sigma,
+                PARAMS.prior_weight, PARAMS.max_weight)
+        (history, display), (want_history, want_display) = mesa.taau_lr_accumulate(*args), ref.taau_lr_accumulate(*args)
+        assert_float_close(history, want_history, TOLERANCE)
+        assert np.abs(display.astype(int) - want_display.astype(int)).max() <= 1
+
+
+@pytest.mark.parametrize("size", SIZES, ids=["odd", "even"])
+def test_display_filter_matches_reference(mesa, ref, size):
+    rng, f = _frame(ref, 5, *size, 2)
+    h, w = size
+    steering = rng.integers(-128, 128, (1, h + h % 2, w + w % 2, 6)).astype(np.int8)
+    history = _history(rng, h, w, 2)
+    args = (steering, history, 2, 0.03, 3, 0.25)
+    got, want = mesa.taau_lr_filter(*args), ref.taau_lr_filter(*args)
+    assert np.abs(got.astype(int) - want.astype(int)).max() <= 1
+    plain = ref.taau_lr_filter(steering, history, 2, 0.03, 3, 0.0)
+    assert np.abs(want.astype(int) - plain.astype(int)).max() > 8  # the filter changed the display
