@@ -15,6 +15,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="render only shard I of N (disjoint frame sets; outputs merge by copying)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                         help="override a sequence key in every sequence (frames=8) or in one (NAME.frames=8)")
+    parser.add_argument("--scale", metavar="S",
+                        help="the scale of every sequence (--set scale=S): 2, 3, 4 or a quality mode in [1.25, 4] "
+                             "such as 1.5 or 1.7; with hr_size in the config the LR size is round(hr_size / S)")
     parser.add_argument("--overwrite", action="store_true", help="re-render frames that already exist")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
@@ -26,7 +29,12 @@ def run(args: argparse.Namespace) -> int:
 
     check_output(args.out, "into")
     shard = parse_shard(args.shard)
-    cfg = load_render_config(args.config, args.overrides)
+    overrides = list(args.overrides)
+    if getattr(args, "scale", None) is not None:
+        from ..ops.scale import parse_scale
+
+        overrides.insert(0, f"scale={parse_scale(args.scale, '--scale')}")  # first: a --set scale=... still wins
+    cfg = load_render_config(args.config, overrides)
     summary = render_dataset(cfg, args.out, shard=shard, overwrite=args.overwrite, progress=not args.no_progress)
     print(f"{summary.rendered} frames rendered, {summary.skipped} already present, "
           f"{summary.seconds:.1f} s -> {args.out} ({', '.join(summary.sequences)})")

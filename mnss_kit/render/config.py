@@ -52,7 +52,7 @@ class SequenceConfig:
     fps: float = 30.0
     start_time: float = 0.0
     lr_size: tuple[int, int] | None = None  # (640, 360) unless hr_size is given
-    scale: int | float = 2  # an int when integral (2.0 -> 2); a quality mode such as 1.5 otherwise
+    scale: int | float | str = 2  # an int when integral (2.0 -> 2); a quality mode such as 1.5 otherwise (text: refused clearly)
     jitter: str = "mnss"
     hr_samples: int = 16
     camera: str = "auto"  # "auto": the scene's own path; "still": that path held at start_time; or a camera-path YAML
@@ -79,7 +79,10 @@ class SequenceConfig:
             raise ValueError(f"sequence '{self.name}': hr_samples must be a square (1, 4, 9, 16, 25, ...), got {self.hr_samples}")
         if self.exposure <= 0:
             raise ValueError(f"sequence '{self.name}': exposure must be > 0")
-        jitter_ops.period(self.jitter, self.scale)  # raises UserError for a bad pattern or scale
+        try:
+            jitter_ops.period(self.jitter, self.scale)  # a UserError for a bad pattern or scale
+        except UserError as e:
+            raise ValueError(f"sequence '{self.name}': {e}") from None
         unknown = [r for r in self.extra_references if r not in EXTRA_REFERENCES]
         if unknown or len(set(self.extra_references)) != len(self.extra_references):
             raise ValueError(f"sequence '{self.name}': extra_references takes each of {', '.join(EXTRA_REFERENCES)} "
