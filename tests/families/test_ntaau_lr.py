@@ -136,3 +136,115 @@ def test_random_steering_stays_finite_and_in_range():
             out, _, state = model(frame, state)
             assert torch.isfinite(out).all() and out.min() >= 0.0 and out.max() <= 1.0
             assert (state["weight"] <= model.params.max_weight + 1e-6).all()
+
+
+# -- the bundle chain ---------------------------------------------------------------------------
+LR_SIZES = {"even": (32, 18), "odd": (33, 19)}  # (w, h): the odd one pads the NPU tensors to 34x20
+GOLDEN_FRAMES = 4
+
+
+@pytest.fixture(scope="module", params=list(LR_SIZES))
+def bundle(request, tmp_path_factory):
+    """A randomly initialised ntaau_lr model (non-zero last layer) exported with 4 golden frames
+    from a tiny render at the LR size, and that render."""
+    from mnss_kit.cli import main
+    from mnss_kit.model import checkpoint
+
+    w, h = LR_SIZES[request.param]
+    root = tmp_path_factory.mktemp(f"ntaau_lr_{request.param}")
+    data = root / "data"
+    assert main(["render", "tiny_test", "--out", str(data), "--set", f"frames={GOLDEN_FRAMES}", "--set", "hr_samples=1",
+                 "--set", f"lr_size=[{w},{h}]", "--no-progress"]) == 0
+    torch.manual_seed(0)
+    model = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1)), noise=0.5)
+    assert model.steer.decode[1].weight.abs().max() > 0
+    ckpt = checkpoint.save(root / "ntaau_lr.pt", model, {"jitter_pattern": "mnss"})
+    out = root / "bundle"
+    assert main(["export", str(ckpt), "--out", str(out), "--data", str(data), "--resolution", f"{2 * w}x{2 * h}",
+                 "--golden-frames", str(GOLDEN_FRAMES), "--no-progress"]) == 0
+    return {"bundle": out, "data": data, "lr_size": (w, h)}
+
+
+def test_the_bundle_passes_its_check_and_lists_depth_and_its_state(bundle):
+    from mnss_kit.cli import main
+
+    assert main(["bundle", "check", str(bundle["bundle"])]) == 0
+    manifest = json.loads((bundle["bundle"] / "manifest.json").read_text())
+    assert manifest["model"]["family"] == "ntaau_lr"
+    roles = {r["name"]: r["role"] for r in manifest["resources"]}
+    assert [n for n, role in roles.items() if role == "input"] == ["color", "depth", "motion"]
+    assert roles["prev_depth"] == "state" and manifest["schedule"]["end_of_frame"] == [{"swap": ["depth", "prev_depth"]}]
+    w, h = bundle["lr_size"]
+    shapes = {t["name"]: t["shape"] for t in manifest["npu"]["tensors"]}
+    assert [shapes[n] for n in manifest["npu"]["inputs"] + manifest["npu"]["outputs"]] == [
+        [1, h + h % 2, w + w % 2, 8], [1, h + h % 2, w + w % 2, 6]]
+    assert len(manifest["golden"]["frames"]) == GOLDEN_FRAMES
+
+
+@pytest.mark.parametrize("gpu_backend", ["numpy", "mesa"])
+def test_the_emulator_reproduces_the_golden_frames(bundle, gpu_backend):
+    """The numpy GPU stage and LiteRT's reference kernels (the golden frames' own) bit for bit over
+    every golden frame; the bundle's shaders on Mesa within the golden tolerance on frame 0 (later
+    frames read a history that GPU made)."""
+    from mnss_kit.emulate.frame_loop import Emulator
+    from mnss_kit.export.golden import TOLERANCES
+    from mnss_kit.export.reader import open_bundle
+
+    b = open_bundle(bundle["bundle"])
+    emulator = Emulator(bundle["bundle"], gpu_backend=gpu_backend)
+    frames = GOLDEN_FRAMES if gpu_backend == "numpy" else 1
+    for i in range(frames):
+        want, result = b.golden(i), emulator.run_frame(b.golden_inputs(i), keep_all=True)
+        if gpu_backend == "mesa":
+            diff = np.abs(result.tensors["npu_input"].astype(int) - want["npu_input"].astype(int)).max()
+            assert diff <= TOLERANCES["npu_input_lsb"]
+            continue
+        for key, got in (("npu_input", result.tensors["npu_input"]), ("npu_output", result.npu_output),
+                         ("display", result.display)):
+            assert np.array_equal(got, want[key]), f"frame {i}: {key}"
+
+
+@pytest.mark.parametrize("profile", ["tflite-ref", "tflite-builtin", "xnnpack", "ort-cpu"])
+def test_the_numpy_npu_is_bit_exact_to_every_runtime(bundle, profile):
+    """The emulator's int8 kernels against the runtime itself (LiteRT's kernel set of the profile,
+    or ONNX Runtime), over the render's frames: 0 differing int8 values."""
+    from mnss_kit.dataset.format import read_meta
+    from mnss_kit.emulate.frame_loop import Emulator
+    from mnss_kit.emulate.sequence import sequence_frames
+
+    runtime_backend = "onnxruntime" if profile == "ort-cpu" else "litert"
+    numpy_npu = Emulator(bundle["bundle"], npu_profile=profile, npu_backend="numpy")
+    runtime = Emulator(bundle["bundle"], npu_profile=profile, npu_backend=runtime_backend)
+    seq = next(p for p in sorted(bundle["data"].iterdir()) if p.is_dir() and not p.name.startswith("."))
+    compared = differing = 0
+    for _, frame, _ in sequence_frames(seq, read_meta(seq), GOLDEN_FRAMES, numpy_npu.runner.inputs):
+        a, b = numpy_npu.run_frame(frame), runtime.run_frame(frame)
+        differing += int((a.npu_output != b.npu_output).sum())
+        compared += a.npu_output.size
+    print(f"{profile}: {differing} of {compared} int8 values differ")
+    assert compared > 0 and differing == 0
+
+
+def test_emulate_cli_runs_the_bundle(bundle, tmp_path):
+    from mnss_kit.cli import main
+
+    out = tmp_path / "emu"
+    assert main(["emulate", str(bundle["bundle"]), "--data", str(bundle["data"]), "--out", str(out), "--frames", "3",
+                 "--no-progress"]) == 0
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert all(s["summary"]["frames"] == 3 for s in metrics["sequences"].values())
+
+
+def test_the_bundle_schedule_hands_the_gpu_the_configs_bounds():
+    """The GPU passes get every bound the torch model reads from the config; no filter pass without a filter."""
+    from mnss_kit.model.ntaau_lr.gpu_plan import schedule
+
+    npu = {"model": "steer.tflite", "input": "in", "output": "out", "input_q": (0.01, 0), "output_q": (0.02, 3)}
+    config = NTAAULRConfig(box_bound=1.5, filter_bound=0.2, trust_depth=0.05, trust_spread_px=2.0)
+    steps = {s["pass"]: s["uniforms"] for s in schedule(config, (17, 9), npu, "tflite-ref")["steps"] if s["kind"] == "gpu"}
+    assert steps["taau_lr_accumulate_pass"]["u_box_bound"] == {"value": 1.5}
+    assert steps["taau_lr_filter_pass"]["u_filter_bound"] == {"value": 0.2}
+    assert steps["taau_lr_evidence_pass"]["u_trust_depth"] == {"value": 0.05}
+    assert steps["taau_lr_evidence_pass"]["u_trust_spread_px"] == {"value": 2.0}
+    plain = schedule(NTAAULRConfig(filter_bound=0.0), (17, 9), npu, "tflite-ref")["steps"]
+    assert "taau_lr_filter_pass" not in {s.get("pass") for s in plain}
