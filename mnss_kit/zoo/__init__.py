@@ -6,12 +6,12 @@
 same names, small nets that steer the toolkit's TAAU and its display filter, trained by
 ``mnss-kit train ntaau_x2_base`` then ``ntaau_x2``, which fine-tunes it (and the same for
 ``ntaau_x2_fast``) on ``train_x2`` rendered with the MNSS jitter,
-centre (no jitter) and Halton, ``train_rooms_x2`` and ``train_still_x2`` (README, *A model that
-steers TAAU*; docs/results.md).  ``mnss_x2.pt``: ``mnss_kit/configs/models/mnss_x2.yaml`` trained
+centre (no jitter) and Halton, ``train_rooms_x2`` and ``train_still_x2`` (docs/training.md, *Reproducing
+the shipped models*; docs/results.md).  ``mnss_x2.pt``: ``mnss_kit/configs/models/mnss_x2.yaml`` trained
 by ``mnss-kit train mnss_x2`` on ``mnss-kit render train_x2`` (the record holds the data
 fingerprint and training summary), the paper's design.
 ``fusesr_x2_hybrid.pt`` and ``fusesr_x4_l.pt``: the configs of the same names, trained on
-``train_x2`` and ``train_x4`` (README, *Reproducing the shipped models*; docs/fusesr_shipped.md).
+``train_x2`` and ``train_x4`` (docs/training.md, *Reproducing the shipped models*; docs/fusesr_shipped.md).
 """
 
 # The model the demo, the stress suite and the docs use when none is named: at or above the
