@@ -39,6 +39,32 @@ def test_app_frame_pipeline_runs_the_shipped_default_model_bit_exact(gl_classes,
     assert tensors > 0 and values > 0
 
 
+def test_app_frame_pipeline_runs_an_ntaau_lr_bundle(gl_classes, java_core, synthetic_dataset, tmp_path, capsys):
+    """An ntaau_lr bundle (a random model: an LR depth input that swaps with prev_depth at the end of
+    the frame, NPU tensors at the LR size): the core's verify and self-test, then the GL pipeline
+    over its golden frames, every GL-produced tensor within the golden tolerance."""
+    import torch
+
+    from mnss_kit.cli import main
+    from mnss_kit.model import checkpoint
+    from mnss_kit.model.families import build_model, randomise_convs
+    from mnss_kit.model.ntaau_lr.config import NTAAULRConfig
+
+    torch.manual_seed(0)
+    model = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1)), noise=0.5)
+    ckpt = checkpoint.save(tmp_path / "ntaau_lr.pt", model, {"jitter_pattern": "mnss"})
+    bundle = tmp_path / "ntaau_lr"
+    assert main(["export", str(ckpt), "--out", str(bundle), "--resolution", "64x48", "--data", str(synthetic_dataset),
+                 "--no-progress"]) == 0
+    assert java_core.tool("verify", str(bundle)) == ""
+    assert java_core.tool("selftest", str(bundle), str(tmp_path / "dump"), "0").strip().endswith("PASSED")
+    frames = len(json.loads((bundle / "manifest.json").read_text())["golden"]["frames"])
+    tensors, values = run_gl_pipeline(gl_classes, bundle)
+    with capsys.disabled():
+        print(f"\nGL pipeline on an ntaau_lr bundle: {tensors} tensors, {values} values compared over {frames} golden frames")
+    assert tensors == 2 * frames and values > 0  # the NPU input buffer and the display, every frame
+
+
 def gles31_methods(text: str) -> set[str]:
     return set(re.findall(r"^    [\w\[\]]+ (gl\w+)\(", text, re.M))
 
