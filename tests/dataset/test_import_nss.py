@@ -23,8 +23,12 @@ def test_import_reproduces_every_buffer_jitter_and_cut(tmp_path, capsys):
     cap = write_nss_capture(tmp_path / "cap", ratios=("2", "1_5"), frames=5, cut_at=3, exposure=1.5)
     code, out, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
     assert code == 0, err
-    assert "x1_5: 5 frames found, not imported: ratio 1.5 is fractional and is not yet trainable" in err
-    assert not (tmp_path / "out" / "x1_5").exists()
+    (frac,) = find_sequences(tmp_path / "out" / "x1_5")  # a quality mode: imported at scale 1.5
+    frac_meta = read_meta(frac)
+    assert (frac_meta.scale, frac_meta.lr_size, frac_meta.hr_size) == (1.5, (21, 11), (32, 16))
+    assert np.array_equal(read_raw_buffer(frac, "lr", "color", 2), cap["x1_5/color"][2][..., :3])
+    assert frac_meta.frames[1].jitter == (cap["json"]["Frames"][1]["NormalizedPerRatioJitter"][1]["X"] * 21,
+                                          cap["json"]["Frames"][1]["NormalizedPerRatioJitter"][1]["Y"] * 11)
     (seq,) = find_sequences(tmp_path / "out" / "x2")
     meta = read_meta(seq)
     assert (meta.scale, meta.lr_size, meta.hr_size) == (2, (16, 8), (32, 16))
@@ -135,10 +139,22 @@ def test_bad_captures_fail_in_one_line_and_leave_nothing(tmp_path, capfd, damage
     assert not list(tmp_path.glob(".out.*"))  # no staging directory left behind
 
 
-def test_only_fractional_ratios_is_refused(tmp_path, capsys):
-    write_nss_capture(tmp_path / "cap", ratios=("1_5",))
+def test_only_ratios_outside_the_quality_modes_is_refused(tmp_path, capsys):
+    write_nss_capture(tmp_path / "cap", ratios=("1", "1_1"))
     code, _, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
-    assert code == 2 and "no integer upscaling ratio of 2 or more (found x1_5)" in err
+    assert code == 2 and "no upscaling ratio of 2 or more or in [1.25, 4] (found x1_1, x1)" in err
+
+
+def test_fractional_ratios_import_and_pass_data_check(tmp_path, capsys):
+    write_nss_capture(tmp_path / "cap", hr_size=(34, 18), ratios=("1_7", "1_5", "1"), frames=4)
+    code, _, err = run_import(capsys, tmp_path / "cap", tmp_path / "out")
+    assert code == 0, err
+    assert "x1: 4 frames found, not imported: ratio 1 does not upscale" in err
+    for ratio, scale, lr in (("x1_7", 1.7, (20, 11)), ("x1_5", 1.5, (23, 12))):
+        (seq,) = find_sequences(tmp_path / "out" / ratio)
+        meta = read_meta(seq)
+        assert (meta.scale, meta.lr_size, meta.hr_size) == (scale, lr, (34, 18))
+        assert cli.main(["data", "check", str(seq), "--quick"]) == 0
 
 
 def test_every_sequence_becomes_one_sequence_of_the_ratio_dataset(tmp_path, capsys):

@@ -21,6 +21,7 @@ import numpy as np
 from ...config import load_config, resolve_config_path
 from ...errors import UserError
 from ...ops.jitter import PATTERNS, jitter_sequence
+from ...ops.scale import hr_size_for, lr_size_for, parse_scale
 from ..format import (BUFFERS, COLOUR_BUFFERS, FORMAT_NAME, FORMAT_VERSION, REQUIRED_BUFFERS, FrameMeta, MotionConvention, SequenceMeta,
                       write_buffer, write_meta)
 from .imagefiles import read_image
@@ -62,7 +63,7 @@ class JitterMapping:
 
 @dataclass
 class ImageMapping:
-    scale: int
+    scale: int | float  # an integer >= 2, or a quality mode in [1.25, 4] (1.5, 1.7: ops.scale; lr = round(hr / s))
     buffers: dict[str, BufferMapping]  # "lr/color", "hr/reference", ...
     jitter: JitterMapping = field(default_factory=JitterMapping)
     sequences: str = "."  # glob of sequence folders under SRC; "." when SRC is one sequence
@@ -111,8 +112,12 @@ def load_mapping(name_or_path: str) -> ImageMapping:
         _same(mapping.buffers, pair, keys, str(path))
     if mapping.jitter.file is None and mapping.jitter.pattern not in PATTERNS:
         raise UserError(f"{path}: jitter needs a file, or a pattern the offsets are generated from ({', '.join(PATTERNS)})")
-    if mapping.scale < 2:
-        raise UserError(f"{path}: scale must be an integer >= 2, got {mapping.scale}")
+    if isinstance(mapping.scale, float) and not mapping.scale.is_integer():
+        mapping.scale = parse_scale(mapping.scale, f"{path}: scale")  # fractional: in [1.25, 4]
+    elif mapping.scale < 2:
+        raise UserError(f"{path}: scale must be an integer >= 2 or a quality mode in [1.25, 4], got {mapping.scale}")
+    else:
+        mapping.scale = int(mapping.scale)
     return mapping
 
 
@@ -166,7 +171,7 @@ def frame_numbers(folder: Path, pattern: str) -> list[int]:
 
 
 def write_sequence(folder: Path, numbers: list[int], mapping: ImageMapping, dest: Path) -> None:
-    lr_size = None
+    lr_size = hr_size = None
     keys = sorted(mapping.buffers, key=lambda k: k != "lr/color")  # lr/color first: it sets the LR size
     for i, number in enumerate(numbers):
         for key in keys:
@@ -175,9 +180,26 @@ def write_sequence(folder: Path, numbers: list[int], mapping: ImageMapping, dest
             path = folder / buf.file.format(frame=number)
             image = decode(path, buf, len(BUFFERS[res][name].channels))
             lr_size = lr_size or (image.shape[1], image.shape[0])
-            _check_size(path, image, res, lr_size, mapping.scale)
+            if isinstance(mapping.scale, int):
+                _check_size(path, image, res, lr_size, mapping.scale)
+            else:  # the first HR file sets the display size; lr = round_half_up(hr / s) per axis
+                hr_size = hr_size or (_check_fractional_size(path, image, lr_size, mapping.scale) if res == "hr" else None)
+                if (image.shape[1], image.shape[0]) != (hr_size if res == "hr" else lr_size):
+                    ew, eh = hr_size if res == "hr" else lr_size
+                    raise UserError(f"{path}: size {image.shape[1]}x{image.shape[0]}, expected {ew}x{eh} "
+                                    f"(the size of {'the first HR file' if res == 'hr' else 'lr/color'})")
             write_buffer(dest, res, name, i, image)
-    write_meta(dest, sequence_meta(folder, numbers, mapping, lr_size))
+    write_meta(dest, sequence_meta(folder, numbers, mapping, lr_size, hr_size))
+
+
+def _check_fractional_size(path: Path, image: np.ndarray, lr_size: tuple[int, int], scale: float) -> tuple[int, int]:
+    """The HR size of ``image`` when it belongs to ``lr_size`` at the fractional ``scale``."""
+    hr_size = (image.shape[1], image.shape[0])
+    if lr_size_for(hr_size, scale) != tuple(lr_size):
+        ew, eh = lr_size_for(hr_size, scale)
+        raise UserError(f"{path}: size {hr_size[0]}x{hr_size[1]} at scale {scale} gives LR {ew}x{eh} "
+                        f"(round(hr / s), half up), but lr/color is {lr_size[0]}x{lr_size[1]}")
+    return hr_size
 
 
 def decode(path: Path, buf: BufferMapping, channels: int) -> np.ndarray:
@@ -198,7 +220,8 @@ def _check_size(path: Path, image: np.ndarray, res: str, lr_size: tuple[int, int
         raise UserError(f"{path}: size {w}x{h}, expected {ew}x{eh} ({what})")
 
 
-def sequence_meta(folder: Path, numbers: list[int], mapping: ImageMapping, lr_size: tuple[int, int]) -> SequenceMeta:
+def sequence_meta(folder: Path, numbers: list[int], mapping: ImageMapping, lr_size: tuple[int, int],
+                  hr_size: tuple[int, int] | None = None) -> SequenceMeta:
     buffers = mapping.buffers
     colour, depth, motion = buffers["lr/color"], buffers["lr/depth"], buffers["lr/motion"]
     jitter = read_jitter(folder, numbers, mapping, lr_size)
@@ -206,7 +229,7 @@ def sequence_meta(folder: Path, numbers: list[int], mapping: ImageMapping, lr_si
     scale = mapping.scale
     return SequenceMeta(
         format=FORMAT_NAME, version=FORMAT_VERSION, name=folder.name, scale=scale, lr_size=lr_size,
-        hr_size=(lr_size[0] * scale, lr_size[1] * scale), jitter_pattern=mapping.jitter.pattern,
+        hr_size=hr_size or hr_size_for(lr_size, scale), jitter_pattern=mapping.jitter.pattern,
         frames=[FrameMeta(index=i, jitter=(float(jitter[i, 0]), float(jitter[i, 1])), reset=i == 0 or n in cuts,
                           time=i / mapping.fps) for i, n in enumerate(numbers)],
         near=mapping.near, far=mapping.far, reverse_z=bool(depth.reverse_z), depth_encoding=depth.encoding or "hardware",

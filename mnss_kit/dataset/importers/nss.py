@@ -5,14 +5,18 @@
     SRC/motion_gt/NNNN/FFFF.exr            HR motion, RG, UV units, unjittered
     SRC/x{ratio}/{color,depth,motion}/NNNN/FFFF.exr   LR buffers per ratio (``2``, ``1_5``, ...)
 
-Every integer ratio becomes its own dataset, ``OUT/x{ratio}/NNNN/``.  The buffers are copied as
+Every ratio the toolkit takes (an integer >= 2, or a quality mode in [1.25, 4] such as ``1_5`` and
+``1_7``: ``ops.scale``) becomes its own dataset, ``OUT/x{ratio}/NNNN/``; a fractional ratio's
+``meta.json`` has ``scale`` 1.5 and the LR size ``round_half_up(TargetResolution / s)`` per axis,
+which the capture's LR files must have.  The buffers are copied as
 stored and their conventions recorded in ``meta.json``: motion in UV pointing to the previous
 frame with +y down (FSR2's convention, which NSS follows), hardware depth with the capture's
 near and far planes and ``ReverseZ``, linear HDR colour with ``Exposure``.  Two things the
 dataset format cannot record are converted once: depth of an infinite (or changing) projection
 becomes linear view depth, and an exposure that changes within a sequence is multiplied into
-the colour.  Fractional ratios are checked for presence and reported, not written: the
-toolkit's models upscale by an integer factor.
+the colour.  Other ratios (x1, or past [1.25, 4]) are checked for presence and reported, not
+written.  The models take integer scales only so far (``model.family.INTEGER_SCALE_ONLY``): a
+fractional ratio's dataset serves ``data check``, ``eval``'s bicubic and the quality-mode work.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ import numpy as np
 
 from ...errors import UserError
 from ...fileio import read_json
+from ...ops.scale import MAX_SCALE, MIN_SCALE, lr_size_for, parse_scale
 from .. import exr
 from ..format import FORMAT_NAME, FORMAT_VERSION, FrameMeta, MotionConvention, SequenceMeta, view_depth, write_buffer, write_meta
 from .publish import ImportResult, publish
@@ -53,8 +58,15 @@ class Ratio:
         return float(self.name.replace("_", "."))
 
     @property
-    def trainable(self) -> bool:  # the dataset format and the models take an integer scale >= 2
-        return "_" not in self.name and int(self.name) >= 2
+    def trainable(self) -> bool:  # the dataset format takes an integer scale >= 2 or one in [1.25, 4]
+        if "_" not in self.name:
+            return int(self.name) >= 2
+        return MIN_SCALE <= self.value <= MAX_SCALE
+
+    @property
+    def scale(self) -> int | float:
+        """The dataset's ``scale``: an int for an integer ratio, else the ratio as written (1.5)."""
+        return int(self.name) if "_" not in self.name else parse_scale(self.value)
 
 
 def import_nss(src: str | Path, out: str | Path, overwrite: bool = False) -> ImportResult:
@@ -69,8 +81,8 @@ def import_nss(src: str | Path, out: str | Path, overwrite: bool = False) -> Imp
     trainable = [r for r in ratios if r.trainable]
     notes = [_untrainable_note(src, r, sequences) for r in ratios if not r.trainable]
     if not trainable:
-        raise UserError(f"{src}: no integer upscaling ratio of 2 or more (found {', '.join('x' + r.name for r in ratios)}); "
-                        "the toolkit trains integer scales only")
+        raise UserError(f"{src}: no upscaling ratio of 2 or more or in [{MIN_SCALE}, {MAX_SCALE}] "
+                        f"(found {', '.join('x' + r.name for r in ratios)})")
 
     written = []  # frames written per sequence and ratio
 
@@ -92,9 +104,9 @@ def _untrainable_note(src: Path, ratio: Ratio, sequences: dict[str, dict]) -> st
     for name, data in sequences.items():
         folders = [src / f"x{ratio.name}" / buffer / name for buffer in LR_BUFFERS]
         frames += len(_present_frames(folders, len(data["Frames"]), data["_path"])[0][folders[0]])
-    why = "is fractional" if "_" in ratio.name else "does not upscale"
-    return (f"x{ratio.name}: {frames} frames found, not imported: ratio {ratio.value:g} {why} and is not yet "
-            "trainable (the toolkit's models upscale by an integer factor of 2 or more)")
+    why = "does not upscale" if ratio.value <= 1 else f"is outside [{MIN_SCALE}, {MAX_SCALE}]"
+    return (f"x{ratio.name}: {frames} frames found, not imported: ratio {ratio.value:g} {why} "
+            "(the toolkit takes an integer scale of 2 or more, or a quality mode in that range)")
 
 
 def find_ratios(src: Path) -> list[Ratio]:
@@ -143,11 +155,14 @@ def write_sequence(src: Path, name: str, data: dict, ratio: Ratio, ratio_count: 
     """Write sequence ``name`` at ``ratio`` as one dataset sequence in ``dest``: the frames every
     buffer has files for.  Returns their count and a warning when ``Frames`` lists more."""
     where = data["_path"]
-    scale = int(ratio.name)
+    scale = ratio.scale
     hr_size = (data["TargetResolution"]["X"], data["TargetResolution"]["Y"])
-    if hr_size[0] % scale or hr_size[1] % scale:
-        raise UserError(f"{where}: TargetResolution {hr_size[0]}x{hr_size[1]} is not divisible by ratio {scale}")
-    lr_size = (hr_size[0] // scale, hr_size[1] // scale)
+    if isinstance(scale, int):
+        if hr_size[0] % scale or hr_size[1] % scale:
+            raise UserError(f"{where}: TargetResolution {hr_size[0]}x{hr_size[1]} is not divisible by ratio {scale}")
+        lr_size = (hr_size[0] // scale, hr_size[1] // scale)
+    else:  # the display size is given, the render size derived (round half up per axis, as ops.scale)
+        lr_size = lr_size_for(hr_size, scale)
     folders = {b: src / f"x{ratio.name}" / b / name for b in LR_BUFFERS}
     folders |= {b: src / b / name for b in ("ground_truth", "motion_gt")}
     present, missing_note = _present_frames(list(folders.values()), len(data["Frames"]), where)
