@@ -172,3 +172,28 @@ def test_bad_captures_fail_in_one_line_and_leave_nothing(tmp_path, capsys, damag
     code, _, err = run_import(capsys, tmp_path / "cap", tmp_path / "out", "packed8")
     assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "out").exists() and not list(tmp_path.glob(".out.*"))
+
+
+def test_fractional_scale_mapping(tmp_path, capsys):
+    """``scale: 1.5``: the HR files set the display size, which round(hr / s) must map to the LR size."""
+    cap = write_packed_capture(tmp_path / "cap", lr_size=LR, frames=2)
+    reference = np.random.default_rng(5).integers(0, 256, (2, 18, 24, 3), dtype=np.uint8)
+    for t in range(2):
+        write_png(cap["seq"] / f"hr/color/{t:04d}.png", reference[t])
+    mapping = write_mapping(tmp_path, lambda m: m.update(scale=1.5))
+    code, _, err = run_import(capsys, tmp_path / "cap", tmp_path / "out", mapping)
+    assert code == 0, err
+    (seq,) = find_sequences(tmp_path / "out")
+    meta = read_meta(seq)
+    assert (meta.scale, meta.lr_size, meta.hr_size) == (1.5, LR, (24, 18))
+    assert np.array_equal(np.round(read_raw_buffer(seq, "hr", "reference", 1) * 255), reference[1])
+    write_png(cap["seq"] / "hr/color/0001.png", np.zeros((18, 26, 3), np.uint8))
+    code, _, err = run_import(capsys, tmp_path / "cap", tmp_path / "out2", mapping)
+    assert code == 2 and "hr/color/0001.png: size 26x18, expected 24x18 (the size of the first HR file)" in err
+    write_png(cap["seq"] / "hr/color/0000.png", np.zeros((18, 26, 3), np.uint8))
+    code, _, err = run_import(capsys, tmp_path / "cap", tmp_path / "out3", mapping)
+    assert code == 2 and "size 26x18 at scale 1.5 gives LR 17x12" in err and len(err.strip().splitlines()) == 1
+    for bad, message in ((0.5, "scale 0.5 is outside [1.25, 4]"), (1.0, "scale must be an integer >= 2"),
+                         (9, "scale 9 is outside [1.25, 4]"), (float("nan"), "finite")):
+        code, _, err = run_import(capsys, tmp_path / "cap", tmp_path / "out4", write_mapping(tmp_path, lambda m: m.update(scale=bad)))
+        assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err

@@ -112,12 +112,9 @@ def load_mapping(name_or_path: str) -> ImageMapping:
         _same(mapping.buffers, pair, keys, str(path))
     if mapping.jitter.file is None and mapping.jitter.pattern not in PATTERNS:
         raise UserError(f"{path}: jitter needs a file, or a pattern the offsets are generated from ({', '.join(PATTERNS)})")
-    if isinstance(mapping.scale, float) and not mapping.scale.is_integer():
-        mapping.scale = parse_scale(mapping.scale, f"{path}: scale")  # fractional: in [1.25, 4]
-    elif mapping.scale < 2:
+    if mapping.scale < 2 and float(mapping.scale).is_integer():
         raise UserError(f"{path}: scale must be an integer >= 2 or a quality mode in [1.25, 4], got {mapping.scale}")
-    else:
-        mapping.scale = int(mapping.scale)
+    mapping.scale = parse_scale(mapping.scale, f"{path}: scale")  # 2, 3, 4 or in [1.25, 4]; 2.0 -> 2
     return mapping
 
 
