@@ -154,3 +154,23 @@ def test_integer_families_refuse_fractional_data():
     with pytest.raises(UserError, match="data is x3 but the model is x2"):
         check_data_scale("mnss", 2, 3)
     check_data_scale("mnss", 2, 2)
+
+
+def test_variants_of_fractional_data_pass_data_check(fractional_data, tmp_path, capsys):
+    """``data variant`` rewrites LR inputs only: the engine preset and camera motion work at 1.7x, and
+    camera motion from depth and the recorded matrices (the display's view) matches the rendered motion."""
+    from mnss_kit.dataset.variants import camera_motion
+
+    src = fractional_data / "b17"
+    for apply in (["engine"], ["camera_motion", "motion_noise"]):
+        out = tmp_path / "_".join(apply)
+        assert main(["data", "variant", str(src), "--out", str(out), "--apply", *apply]) == 0
+        assert main(["data", "check", str(out)]) == 0
+        meta = fmt.read_meta(out / "b17")
+        assert (meta.scale, meta.lr_size, meta.hr_size) == (1.7, (47, 26), (80, 45))
+    capsys.readouterr()
+    meta = fmt.read_meta(src)
+    rendered = fmt.canonical_motion(fmt.read_raw_buffer(src, "lr", "motion", 1), meta, meta.lr_size)
+    assert np.abs(rendered).max() > 0.1
+    derived = fmt.canonical_motion(camera_motion(src, meta, 1), meta, meta.lr_size)
+    assert np.median(np.linalg.norm(derived - rendered, axis=-1)) < 1e-3
