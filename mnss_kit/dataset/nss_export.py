@@ -41,7 +41,7 @@ def write_nss_sequence(seq_dir: Path, root: Path, sequence: str = "0000") -> Non
     """Write the toolkit sequence ``seq_dir`` into the NSS capture ``root`` as ``sequence``, ratio x{scale}."""
     meta = read_meta(seq_dir)
     _check_exportable(seq_dir, meta)
-    ratio = f"x{meta.scale}"
+    ratio = nss_ratio(meta.scale)
     for i in range(meta.frame_count):
         def put(key, image, half=True, channels=("R", "G")):
             write_exr(root / key / sequence / f"{i:04d}.exr", image, half=half, channels=channels)
@@ -56,6 +56,11 @@ def write_nss_sequence(seq_dir: Path, root: Path, sequence: str = "0000") -> Non
         put(f"{ratio}/depth", read_raw_buffer(seq_dir, "lr", "depth", i), half=False, channels=("R",))
         put(f"{ratio}/motion", _uv_motion(read_raw_buffer(seq_dir, "lr", "motion", i), meta.lr_size))
     (root / f"{sequence}.json").write_text(json.dumps(sequence_json(meta)))
+
+
+def nss_ratio(scale) -> str:
+    """The NSS ratio folder of a scale: ``x2``, ``x1_5`` (the capture spec writes the point as ``_``)."""
+    return "x" + (str(int(scale)) if float(scale).is_integer() else f"{float(scale):g}".replace(".", "_"))
 
 
 def _uv_motion(pixels: np.ndarray, size: tuple[int, int]) -> np.ndarray:
@@ -77,7 +82,7 @@ def sequence_json(meta: SequenceMeta) -> dict:
     return {
         "Version": NSS_VERSION, "EmulatedFramerate": 30, "TargetResolution": {"X": meta.hr_size[0], "Y": meta.hr_size[1]},
         "Samples": {"Sequence": meta.jitter_pattern, "Count": 12, "Quantized": True}, "ReverseZ": False,
-        "UpscalingRatiosIndices": {f"x{meta.scale}_index": 0}, "Frames": frames,
+        "UpscalingRatiosIndices": {f"{nss_ratio(meta.scale)}_index": 0}, "Frames": frames,
     }
 
 

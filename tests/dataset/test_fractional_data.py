@@ -174,3 +174,16 @@ def test_variants_of_fractional_data_pass_data_check(fractional_data, tmp_path, 
     assert np.abs(rendered).max() > 0.1
     derived = fmt.canonical_motion(camera_motion(src, meta, 1), meta, meta.lr_size)
     assert np.median(np.linalg.norm(derived - rendered, axis=-1)) < 1e-3
+
+
+def test_nss_round_trip_at_1_7(fractional_data, tmp_path):
+    from mnss_kit.dataset.importers.nss import import_nss
+    from mnss_kit.dataset.nss_export import export_nss
+
+    export_nss([fractional_data / "b17"], tmp_path / "capture")
+    assert (tmp_path / "capture" / "x1_7" / "color" / "0000").is_dir()
+    import_nss(tmp_path / "capture", tmp_path / "imported")
+    (seq,) = fmt.find_sequences(tmp_path / "imported" / "x1_7")
+    meta, src = fmt.read_meta(seq), fmt.read_meta(fractional_data / "b17")
+    assert (meta.scale, meta.lr_size, meta.hr_size) == (1.7, (47, 26), (80, 45))
+    np.testing.assert_allclose([f.jitter for f in meta.frames], [f.jitter for f in src.frames], atol=1e-12)
