@@ -5,7 +5,8 @@ its runtime), the Android core's bundle contract and the app's GL pipeline.
 ``toy`` is a second family defined only in ``toy_family.py``: nothing in the package knows it
 exists (the fixture adds it to the family table for its own duration).  ``fusesr`` is the
 shipped reduced FuseSR family: its "l" variant at x4 and its history hybrid at x2, each on a small
-render carrying the G-buffers.  ``ntaau`` steers the toolkit's TAAU (exp and tanh: float paths)."""
+render carrying the G-buffers.  ``ntaau`` steers the toolkit's TAAU (exp and tanh: float paths);
+``ntaau_lr`` steers it from LR, with an LR depth input and NPU tensors at the LR size."""
 
 from __future__ import annotations
 
@@ -64,6 +65,11 @@ CASES = {
                   (f"frames={LR_FRAMES}", "hr_samples=1", "lr_size=[48,24]"),
                   {"taau_gather": "gpu", "steer": "npu", "taau_accumulate": "gpu"}, ("color", "motion"),
                   float_gpu=True, recurrent=True, shipped="ntaau_x2"),  # the default model
+    "ntaau_lr": Case("ntaau_lr", {"family": "ntaau_lr", "scale": 2, "width": 8, "mid_layers": 1, "filter_bound": 0.25,
+                                  "box_bound": 1.5},
+                     (f"frames={LR_FRAMES}", "hr_samples=1", "lr_size=[48,24]"),
+                     {"lr_gather": "gpu", "steer": "npu", "lr_accumulate": "gpu"}, ("color", "depth", "motion"),
+                     float_gpu=True, recurrent=True),
 }
 
 
