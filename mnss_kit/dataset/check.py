@@ -22,7 +22,7 @@ import OpenEXR
 from ..errors import UserError
 from ..ops.jitter import PATTERNS, jitter_sequence, period
 from ..ops.resample import bilinear_sample, pixel_grid
-from ..ops.scale import MAX_SCALE, MIN_SCALE, upsample_motion_to
+from ..ops.scale import MAX_SCALE, MIN_SCALE, parse_scale, upsample_motion_to
 from ..ops.warp import warp_bilinear
 from . import exr
 from .format import BUFFERS, COLOUR_BUFFERS, META_FILE, REQUIRED_BUFFERS, SequenceMeta, buffer_path, canonical_motion, find_sequences, read_buffer, read_meta
@@ -71,12 +71,16 @@ class Report:
         return f"{self.sequences} sequence(s), {self.frames} frames, {self.files} files checked: {counts}"
 
 
-def check_dataset(root: str | Path, quick: bool = False, progress: bool = True, families: tuple[str, ...] = ()) -> Report:
+def check_dataset(root: str | Path, quick: bool = False, progress: bool = True, families: tuple[str, ...] = (),
+                  scale=None) -> Report:
     """Check every sequence under ``root`` (a dataset or one sequence); never raises for bad data.
 
     ``families``: model families the data must serve; a buffer one of them reads that a sequence
-    lacks is an error (without them, ``Report.lacking`` only counts such sequences per family).
+    lacks is an error (without them, ``Report.lacking`` only counts such sequences per family), and
+    so is a fractional scale for a family of integer scales only.  ``scale`` (``--scale``): the scale
+    every sequence must have (a UserError when it is no scale at all: 0.5, 1.0, nan, 9).
     """
+    expected = None if scale is None else parse_scale(scale, "--scale")
     root = Path(root)
     seqs = find_sequences(root)
     base = root.parent if (root / META_FILE).is_file() else root
@@ -85,7 +89,8 @@ def check_dataset(root: str | Path, quick: bool = False, progress: bool = True, 
 
     with tqdm(desc="checking", unit="file", disable=None if progress else True) as bar:
         for seq in seqs:
-            SequenceChecker(seq, base, report, quick, on_file=lambda: bar.update(1), families=families).run()
+            SequenceChecker(seq, base, report, quick, on_file=lambda: bar.update(1), families=families,
+                            expected_scale=expected).run()
     return report
 
 
@@ -113,8 +118,10 @@ def missing_family_buffers(meta: SequenceMeta, family_name: str) -> list[str]:
 
 
 class SequenceChecker:
-    def __init__(self, seq: Path, base: Path, report: Report, quick: bool, on_file=None, families: tuple[str, ...] = ()):
+    def __init__(self, seq: Path, base: Path, report: Report, quick: bool, on_file=None, families: tuple[str, ...] = (),
+                 expected_scale=None):
         self.seq, self.base, self.report, self.quick, self.families = seq, base, report, quick, families
+        self.expected_scale = expected_scale
         self.on_file = on_file or (lambda: None)
         self.meta: SequenceMeta | None = None
 
@@ -150,6 +157,8 @@ class SequenceChecker:
             err(where, f"scale must be an integer >= 2 or in [{MIN_SCALE}, {MAX_SCALE}], and lr_size positive "
                        f"(scale {m.scale}, lr_size {m.lr_size})")
             ok = False
+        if self.expected_scale is not None and m.scale != self.expected_scale:
+            err(where, f"scale {m.scale}, but --scale is {self.expected_scale}")
         if not m.frames:
             err(where, "no frames")
             return False
@@ -183,6 +192,13 @@ class SequenceChecker:
 
     def check_family_buffers(self, where: str) -> None:
         from ..model.families import FAMILIES
+        from ..model.family import INTEGER_SCALE_ONLY
+
+        if isinstance(self.meta.scale, float):
+            for name in self.families:
+                if name in INTEGER_SCALE_ONLY:
+                    self.report.error(where, f"the {name} family takes integer scales only ({INTEGER_SCALE_ONLY[name]}); "
+                                             f"this sequence is x{self.meta.scale:g}")
 
         for name in FAMILIES:
             missing = missing_family_buffers(self.meta, name)

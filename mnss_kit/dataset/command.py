@@ -25,6 +25,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--family", action="append", default=[], choices=family_names(), metavar="NAME",
                    help=f"a model family the data must serve ({', '.join(family_names())}): a buffer it reads that a "
                    "sequence lacks is an error (repeatable)")
+    p.add_argument("--scale", metavar="S", help="the scale every sequence must have: 2, 3, 4 or a quality mode in "
+                   "[1.25, 4] such as 1.5 or 1.7 (another scale is an error)")
     p = sub.add_parser("info", help="print sizes, frames, scale and buffers of each sequence")
     p.add_argument("dir", type=Path, help="dataset directory or one sequence directory")
     p = sub.add_parser("cache", help="decode every buffer once into the training cache")
@@ -82,7 +84,7 @@ def run_variant(args: argparse.Namespace) -> int:
 def run_check(args: argparse.Namespace) -> int:
     from .check import check_dataset
 
-    report = check_dataset(args.dir, quick=args.quick, families=tuple(args.family))
+    report = check_dataset(args.dir, quick=args.quick, families=tuple(args.family), scale=args.scale)
     ordered = report.errors + report.warnings
     for problem in ordered[: max(args.max_lines, 0)]:
         print(problem.line())

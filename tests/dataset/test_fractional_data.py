@@ -187,3 +187,16 @@ def test_nss_round_trip_at_1_7(fractional_data, tmp_path):
     meta, src = fmt.read_meta(seq), fmt.read_meta(fractional_data / "b17")
     assert (meta.scale, meta.lr_size, meta.hr_size) == (1.7, (47, 26), (80, 45))
     np.testing.assert_allclose([f.jitter for f in meta.frames], [f.jitter for f in src.frames], atol=1e-12)
+
+
+def test_data_check_scale_and_family_options(fractional_data, capsys):
+    seq = str(fractional_data / "q15")
+    assert main(["data", "check", seq, "--quick", "--scale", "1.5"]) == 0
+    assert main(["data", "check", seq, "--quick", "--scale", "2"]) == 1
+    assert "scale 1.5, but --scale is 2" in capsys.readouterr().out
+    for bad in ("0.5", "1.0", "nan", "9"):
+        assert main(["data", "check", seq, "--quick", "--scale", bad]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "--scale" in err and "\n" not in err
+    assert main(["data", "check", seq, "--quick", "--family", "mnss"]) == 1
+    assert "the mnss family takes integer scales only (its pixel insertion" in capsys.readouterr().out
