@@ -200,3 +200,17 @@ def test_data_check_scale_and_family_options(fractional_data, capsys):
         assert "--scale" in err and "\n" not in err
     assert main(["data", "check", seq, "--quick", "--family", "mnss"]) == 1
     assert "the mnss family takes integer scales only (its pixel insertion" in capsys.readouterr().out
+
+
+def test_an_mnss_checkpoint_refuses_fractional_data_in_one_line(fractional_data, tmp_path, capsys):
+    from mnss_kit.model import checkpoint
+    from mnss_kit.model.families import build_model
+    from mnss_kit.model.mnss.config import MNSSConfig
+
+    torch.manual_seed(0)
+    model = build_model(MNSSConfig(scale=2, recon_width=4, recon_layers=2, aa_width=4, aa_layers=2))
+    ckpt = checkpoint.save(tmp_path / "tiny_x2.pt", model, {"jitter_pattern": "mnss"})
+    code = main(["eval", str(ckpt), "--data", str(fractional_data / "q15"), "--no-progress"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err
+    assert "data is x1.5, a fractional scale, and the mnss family takes integer scales only (its pixel insertion" in err
