@@ -408,16 +408,16 @@ class MesaPasses:
         return self.read(out, "rgba32f", 4)
 
     @_in_own_context
-    def taau_lr_pack(self, color, reprojected, evidence, scale: int, max_weight: float, q_scale: float, q_zero_point: int,
-                     profile: str):
+    def taau_lr_pack(self, color, reprojected, evidence, scale: int, reset: bool, max_weight: float, q_scale: float,
+                     q_zero_point: int, profile: str):
         h, w = color.shape[:2]
         ph, pw = h + h % 2, w + w % 2
         nbytes = ph * pw * 8
         words = -(-nbytes // 4)
         out = self.ctx.buffer(reserve=words * 4)
-        res = {"color": self.texture(color, "rgba16f"), "reprojected": self.texture(reprojected, "rgba16f"),
-               "evidence": self.texture(evidence, "rgba32f"), "npu_input": out}
-        uni = {"u_scale": scale, "u_max_weight": float(max_weight), "u_word_count": words,
+        res = {"color": self.texture(color, "rgba16f"), "evidence": self.texture(evidence, "rgba32f"), "npu_input": out,
+               "reprojected": self._placeholder() if reset else self.texture(reprojected, "rgba16f")}
+        uni = {"u_scale": scale, "u_reset": int(bool(reset)), "u_max_weight": float(max_weight), "u_word_count": words,
                **P.quantize_uniforms(q_scale, q_zero_point, profile)}
         self.run("taau_lr_pack_pass", (words,), res, uni)
         return np.frombuffer(out.read(), dtype=np.int8)[:nbytes].reshape(1, ph, pw, 8).copy()

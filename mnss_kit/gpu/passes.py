@@ -182,7 +182,7 @@ PASSES = {
             "taau_lr_pack_pass", (64, 1, 1), "words",
             (_s("color", 0, "rgba16f"), _s("reprojected", 1, "rgba16f"), _s("evidence", 2, "rgba32f"),
              _b("npu_input", 0, "uint[]")),
-            ("u_scale", "u_max_weight", "u_word_count", "u_q_scale", "u_q_reciprocal", "u_q_use_reciprocal", "u_q_rounding",
+            ("u_scale", "u_reset", "u_max_weight", "u_word_count", "u_q_scale", "u_q_reciprocal", "u_q_use_reciprocal", "u_q_rounding",
              "u_q_zero_point"),
             exact=False,
         ),

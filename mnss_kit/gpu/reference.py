@@ -201,11 +201,14 @@ class ReferencePasses:
         return taau_lr.evidence(depth, previous, sanitize_motion(np.asarray(motion, np.float32)), float(np.float32(trust_depth)),
                                 float(np.float32(trust_spread_px)))
 
-    def taau_lr_pack(self, color, reprojected, evidence, scale: int, max_weight: float, q_scale: float, q_zero_point: int,
-                     profile: str):
+    def taau_lr_pack(self, color, reprojected, evidence, scale: int, reset: bool, max_weight: float, q_scale: float,
+                     q_zero_point: int, profile: str):
         """taau_lr_pack_pass -> the int8 NPU input (1,h',w',8), h' and w' even: ``ops.taau_lr.steering_features``
-        quantized as ``ops.int8.quantize.quantize`` under ``profile``."""
-        r, e = to_half(reprojected), np.asarray(evidence, np.float32)
+        quantized as ``ops.int8.quantize.quantize`` under ``profile``.  On a reset the history is zero (colour
+        and weight), as the model's state after a cut; ``reprojected`` is not read."""
+        e = np.asarray(evidence, np.float32)
+        h, w = e.shape[:2]
+        r = np.zeros((h * scale, w * scale, 4), np.float32) if reset else to_half(reprojected)
         features = taau_lr.steering_features(sanitize_colour(to_half(color)), r[..., :3], r[..., 3:], e[..., 0:1], e[..., 1:2],
                                              scale, max_weight)
         return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]

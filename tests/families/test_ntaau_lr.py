@@ -162,7 +162,7 @@ def bundle(request, tmp_path_factory):
     out = root / "bundle"
     assert main(["export", str(ckpt), "--out", str(out), "--data", str(data), "--resolution", f"{2 * w}x{2 * h}",
                  "--golden-frames", str(GOLDEN_FRAMES), "--no-progress"]) == 0
-    return {"bundle": out, "data": data, "lr_size": (w, h)}
+    return {"bundle": out, "data": data, "lr_size": (w, h), "model": model.eval()}
 
 
 def test_the_bundle_passes_its_check_and_lists_depth_and_its_state(bundle):
@@ -223,6 +223,28 @@ def test_the_numpy_npu_is_bit_exact_to_every_runtime(bundle, profile):
         compared += a.npu_output.size
     print(f"{profile}: {differing} of {compared} int8 values differ")
     assert compared > 0 and differing == 0
+
+
+def test_the_bundle_computes_the_model(bundle):
+    """The emulated int8 frames against the torch model on the same frames: much closer to it than
+    the model is to TAAU, so the bundle carries the steering (trust, fallback, depth state) and not
+    just TAAU."""
+    from mnss_kit.dataset.format import read_meta
+    from mnss_kit.emulate.frame_loop import Emulator
+    from mnss_kit.emulate.sequence import sequence_frames
+
+    emulator = Emulator(bundle["bundle"])
+    seq = next(p for p in sorted(bundle["data"].iterdir()) if p.is_dir() and not p.name.startswith("."))
+    state = None
+    for _, frame, _ in sequence_frames(seq, read_meta(seq), GOLDEN_FRAMES, emulator.runner.inputs):
+        display = emulator.run_frame(frame).display.astype(np.float32) / 255
+        batch = {k: _nchw(frame[k]) for k in ("color", "depth", "motion")}
+        batch.update(jitter=torch.from_numpy(np.asarray(frame["jitter"], np.float32))[None],
+                     reset=torch.tensor([float(frame["reset"])]))
+        with torch.no_grad():
+            out, aux, state = bundle["model"](batch, state)
+        to_model, model_to_taau = (float(((a - b) ** 2).mean()) for a, b in ((_hwc(out), display), (_hwc(out), _hwc(aux["taau"]))))
+        assert 10 * np.log10(model_to_taau / to_model) > 6, (to_model, model_to_taau)
 
 
 def test_emulate_cli_runs_the_bundle(bundle, tmp_path):

@@ -53,11 +53,12 @@ def test_evidence_matches_reference(mesa, ref, size):
 @pytest.mark.parametrize("profile", ["tflite-ref", "ort-cpu"])
 def test_pack_matches_reference_within_one_step(mesa, ref, size, scale, profile):
     _, f = _frame(ref, 11 * scale, *size, scale)
-    args = (f["color"], f["reprojected"], f["evidence"], scale, PARAMS.max_weight, 1.0 / 100.0, -20, profile)
-    got, want = mesa.taau_lr_pack(*args), ref.taau_lr_pack(*args)
-    assert got.shape == want.shape == (1, size[0] + size[0] % 2, size[1] + size[1] % 2, 8)
-    diff = np.abs(got.astype(int) - want.astype(int))
-    assert diff.max() <= 1 and (diff > 0).mean() < 0.01  # block means and a division: not correctly rounded
+    for reset in (False, True):  # a reset: the history is zero, whatever the reprojection holds
+        args = (f["color"], f["reprojected"], f["evidence"], scale, reset, PARAMS.max_weight, 1.0 / 100.0, -20, profile)
+        got, want = mesa.taau_lr_pack(*args), ref.taau_lr_pack(*args)
+        assert got.shape == want.shape == (1, size[0] + size[0] % 2, size[1] + size[1] % 2, 8)
+        diff = np.abs(got.astype(int) - want.astype(int))
+        assert diff.max() <= 1 and (diff > 0).mean() < 0.01  # block means and a division: not correctly rounded
 
 
 @pytest.mark.parametrize("size", SIZES, ids=["odd", "even"])

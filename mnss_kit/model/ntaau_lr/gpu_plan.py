@@ -94,7 +94,8 @@ def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile
               "u_trust_spread_px": const(config.trust_spread_px)}, **a),
         step("taau_lr_pack_pass", "steering features + pack", "lr_gather",
              {"color": "color", "reprojected": "reprojected", "evidence": "evidence", "npu_input": "npu_input"},
-             {"u_scale": const(s), "u_max_weight": const(params.max_weight), "u_word_count": const(words),
+             {"u_scale": const(s), "u_reset": per_frame("reset"), "u_max_weight": const(params.max_weight),
+              "u_word_count": const(words),
               **quantize_uniforms(*npu["input_q"], profile)}, words=words, **a),
         {"kind": "npu", "label": "steering net", "stage": "steer", "model": npu["model"],
          "inputs": {npu["input"]: "npu_input"}, "outputs": {npu["output"]: "npu_output"}},
@@ -113,7 +114,8 @@ def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile
         "steps": steps,
         "end_of_frame": [{"swap": ["depth", "prev_depth"]}],
         "reset": "on a reset frame taau_reproject_pass gets u_reset = 1 (the history keeps zero weight) and "
-                 "taau_lr_evidence_pass reads this frame's depth for the previous one",
+                 "taau_lr_evidence_pass reads this frame's depth for the previous one; taau_lr_pack_pass takes the "
+                 "history as zero (the reprojected colour is stale), as the model's state after a cut",
         "barriers": "glMemoryBarrier between GPU steps; around the NPU step the GPU's writes to npu_input must be visible "
                     "to the NPU, and the NPU's npu_output to the GPU (fence)",
     }

@@ -1,7 +1,8 @@
 #version 310 es
 // taau_lr_pack_pass: one invocation per 32-bit word of the NPU input tensor.
 //   in   color        LR rgba16f     jittered LR colour, display values
-//        reprojected  HR rgba16f     taau_reproject_pass
+//        reprojected  HR rgba16f     taau_reproject_pass (not read on a reset: the history is zero,
+//                                    as the model's cut state)
 //        evidence     LR rgba32f     taau_lr_evidence_pass
 //   out  npu_input    std430 uint[]  int8 NHWC (1, h', w', 8), h' and w' the LR size rounded up to
 //                                    even (edge pixels repeated): the LR colour, the clamped
@@ -20,6 +21,7 @@ layout(binding = 2) uniform highp sampler2D evidence;
 layout(std430, binding = 0) writeonly buffer NpuInput { uint npu_input[]; };
 
 uniform int u_scale;
+uniform int u_reset;
 uniform float u_max_weight;
 uniform int u_word_count;
 uniform float u_q_scale;
@@ -49,7 +51,7 @@ vec3 block_means(ivec2 p) {
     vec3 sum = vec3(0.0);
     for (int sy = 0; sy < u_scale; sy++) {
         for (int sx = 0; sx < u_scale; sx++) {
-            vec4 history = texelFetch(reprojected, p * u_scale + ivec2(sx, sy), 0);
+            vec4 history = u_reset != 0 ? vec4(0.0) : texelFetch(reprojected, p * u_scale + ivec2(sx, sy), 0);
             vec3 clamped = min(max(history.rgb, lo), hi);
             vec3 d = abs(history.rgb - clamped);
             sum += vec3(clamped.x, d.x + d.y + d.z, history.a);
