@@ -86,3 +86,19 @@ def test_display_filter_matches_reference(mesa, ref, size):
     assert np.abs(got.astype(int) - want.astype(int)).max() <= 1
     plain = ref.taau_lr_filter(steering, history, 2, 0.03, 3, 0.0)
     assert np.abs(want.astype(int) - plain.astype(int)).max() > 8  # the filter changed the display
+
+
+def test_passes_sanitize_their_inputs(mesa, ref):
+    """NaN and +-Inf in this frame's colour, depth and motion and in the stored previous depth: the
+    evidence and the pack on Mesa as their reference, every value finite (``ops.sanitize``)."""
+    h, w = SIZES[0]
+    _, f = _frame(ref, 3, h, w, 2)
+    for key, channel in (("color", 0), ("depth", 0), ("prev_depth", 0), ("motion", 1)):
+        f[key] = f[key].copy()
+        f[key][1, 2, channel], f[key][3, 4, channel], f[key][0, 0, channel] = np.nan, np.inf, -np.inf
+    args = (f["depth"], f["prev_depth"], f["motion"], False, *TRUST)
+    got, want = mesa.taau_lr_evidence(*args), ref.taau_lr_evidence(*args)
+    assert np.isfinite(want).all()
+    assert_float_close(got, want, 1e-5)
+    pack = (f["color"], f["reprojected"], want, 2, False, PARAMS.max_weight, 1.0 / 100.0, -20, "tflite-ref")
+    assert np.abs(mesa.taau_lr_pack(*pack).astype(int) - ref.taau_lr_pack(*pack).astype(int)).max() <= 1
