@@ -22,7 +22,7 @@ import OpenEXR
 from ..errors import UserError
 from ..ops.jitter import PATTERNS, jitter_sequence, period
 from ..ops.resample import bilinear_sample, pixel_grid
-from ..ops.scale import MAX_SCALE, MIN_SCALE, parse_scale, upsample_motion_to
+from ..ops.scale import INTEGER_SCALE_ONLY, MAX_SCALE, MIN_SCALE, parse_scale, upsample_motion_to
 from ..ops.warp import warp_bilinear
 from . import exr
 from .format import BUFFERS, COLOUR_BUFFERS, META_FILE, REQUIRED_BUFFERS, SequenceMeta, buffer_path, canonical_motion, find_sequences, read_buffer, read_meta
@@ -192,7 +192,6 @@ class SequenceChecker:
 
     def check_family_buffers(self, where: str) -> None:
         from ..model.families import FAMILIES
-        from ..model.family import INTEGER_SCALE_ONLY
 
         if isinstance(self.meta.scale, float):
             for name in self.families:

@@ -122,8 +122,8 @@ class SequenceMeta:
 
     @property
     def ratios(self):
-        """The exact ``hr / lr`` of each axis ``(x, y)`` (``fractions.Fraction``; the scale itself
-        at an integer scale)."""
+        """The exact ``hr / lr`` of each axis ``(x, y)`` (``ops.scale.Ratio``, reduced; the scale
+        itself at an integer scale)."""
         return scales.axis_ratios(self.lr_size, self.hr_size)
 
     @property

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from ..dataset.format import BUFFERS, REQUIRED_BUFFERS
+from ..ops.scale import INTEGER_SCALE_ONLY  # why each family takes integer scales only (check_data_scale)
 
 
 @dataclass(frozen=True)
@@ -103,16 +104,6 @@ def check_frame(frame: dict, keys: dict[str, int], scale: int, family: str) -> N
             raise UserError(f"model input '{key}' has shape {tuple(frame[key].shape)}, expected {(n, channels, *size)}")
     if tuple(frame["jitter"].shape) != (n, 2):
         raise UserError(f"model input 'jitter' has shape {tuple(frame['jitter'].shape)}, expected {(n, 2)}")
-
-
-# Why each family takes integer scales only so far (issue 44: a fractional scale, 1.5x or 1.7x, has
-# no s x s tile of HR pixels per LR pixel).  A family that learns to take any scale leaves this map.
-INTEGER_SCALE_ONLY = {
-    "mnss": "its pixel insertion puts each LR sample into one of the s x s HR pixels of its tile",
-    "fusesr": "its pixel unshuffle folds s x s HR pixels into channels",
-    "ntaau": "its steering net's outputs are pixel-shuffled by s",
-    "ntaau_lr": "its TAAU accumulation takes an integer scale so far",
-}
 
 
 def check_data_scale(family: str | None, model_scale, data_scale, where: str = "") -> None:

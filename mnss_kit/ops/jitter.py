@@ -27,8 +27,6 @@ sub-pixel functions (``subpixel_index`` and friends: MNSS's pixel insertion) tak
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..errors import UserError
@@ -53,7 +51,8 @@ def period(pattern: str, scale: int | float) -> int:
     if pattern == "halton":
         if isinstance(scale, (int, np.integer)):
             return 8 * scale * scale
-        return math.ceil(8 * scales.as_fraction(scale) ** 2)
+        num, den = scales.as_fraction(scale)
+        return -(-8 * num * num // (den * den))  # ceil(8 s^2), exactly
     return 1
 
 

@@ -12,7 +12,7 @@ so 1280x720 at 1.7 renders at 753x424 (752.94 -> 753, 423.53 -> 424) and at 1.5 
 Given an LR size instead, ``hr = round_half_up(lr * s)``; this HR size gives the LR size back by the
 rule above (``|hr / s - lr| <= 0.5 / s < 0.5``), so one invariant, ``lr == round_half_up(hr / s)``,
 holds for data made either way.  An integer scale keeps the stricter old invariant
-``hr == lr * s`` exactly.  The exact ratio of an axis is ``hr / lr`` (a :class:`fractions.Fraction`:
+``hr == lr * s`` exactly.  The exact ratio of an axis is ``hr / lr`` (a :class:`Ratio` of integers, reduced:
 1280/753 and 720/424 = 90/53 for 1280x720 at 1.7): what maps LR pixel positions to HR ones (as
 FSR2 keeps its render and display sizes); the nominal ``s`` names the mode.
 
@@ -26,7 +26,7 @@ at 1.5 or 1360x765 -> 800x450 at 1.7).
 from __future__ import annotations
 
 import math
-from fractions import Fraction
+from typing import NamedTuple
 
 from ..errors import UserError
 
@@ -37,6 +37,34 @@ INTEGER_SCALES = (2, 3, 4)
 MAX_SCALE_DENOMINATOR = 1000
 
 Scale = int | float
+# Why each model family takes integer scales only so far (a fractional scale has no s x s tile of HR
+# pixels per LR pixel).  Here, with the scale rules, so data check (an earlier stage than model/) can
+# name it too; ``model.family.check_data_scale`` refuses data with it.  A family that learns to take
+# any scale leaves this map.
+INTEGER_SCALE_ONLY = {
+    "mnss": "its pixel insertion puts each LR sample into one of the s x s HR pixels of its tile",
+    "fusesr": "its pixel unshuffle folds s x s HR pixels into channels",
+    "ntaau": "its steering net's outputs are pixel-shuffled by s",
+    "ntaau_lr": "its TAAU accumulation takes an integer scale so far",
+}
+
+
+class Ratio(NamedTuple):
+    """An exact ratio ``num / den`` of positive integers, reduced (no ``fractions``: ops/ stays numpy-only)."""
+
+    num: int
+    den: int
+
+    @classmethod
+    def of(cls, num: int, den: int) -> "Ratio":
+        g = math.gcd(int(num), int(den))
+        return cls(int(num) // g, int(den) // g)
+
+    def __float__(self) -> float:
+        return self.num / self.den
+
+    def __str__(self) -> str:
+        return f"{self.num}/{self.den}"
 
 
 def parse_scale(value, what: str = "scale") -> Scale:
@@ -59,7 +87,7 @@ def parse_scale(value, what: str = "scale") -> Scale:
         raise UserError(f"{what} {_text(number)} is outside [{MIN_SCALE}, {MAX_SCALE}]{why}")
     if number.is_integer():
         return int(number)
-    if as_fraction(number).denominator > MAX_SCALE_DENOMINATOR:
+    if as_fraction(number).den > MAX_SCALE_DENOMINATOR:
         raise UserError(f"{what} {number!r} has more than 3 decimals: give a quality mode such as 1.5 or 1.7")
     return number
 
@@ -69,21 +97,21 @@ def is_integer(scale: Scale) -> bool:
     return isinstance(scale, int) or float(scale).is_integer()
 
 
-def as_fraction(scale: Scale) -> Fraction:
+def as_fraction(scale: Scale) -> Ratio:
     """The scale as the exact decimal it was written as (1.7 is 17/10, not the nearest double)."""
-    if isinstance(scale, int):
-        return Fraction(scale)
-    return Fraction(repr(float(scale)))
-
-
-def _round_half_up(x: Fraction) -> int:
-    return math.floor(x + Fraction(1, 2))
+    if isinstance(scale, int) or float(scale).is_integer():
+        return Ratio(int(scale), 1)
+    text = repr(float(scale))
+    if "e" in text or "E" in text or "." not in text:
+        return Ratio.of(*float(scale).as_integer_ratio())
+    whole, decimals = text.split(".")
+    return Ratio.of(int(whole + decimals), 10 ** len(decimals))
 
 
 def lr_size_for(hr_size, scale: Scale) -> tuple[int, int]:
     """``round_half_up(hr / s)`` per axis: the render size of a display size (1280x720 at 1.7: 753x424)."""
-    s = as_fraction(scale)
-    return tuple(_round_half_up(Fraction(int(v)) / s) for v in hr_size)
+    num, den = as_fraction(scale)
+    return tuple((2 * int(v) * den + num) // (2 * num) for v in hr_size)  # floor(hr * den / num + 1/2), exactly
 
 
 def hr_size_for(lr_size, scale: Scale) -> tuple[int, int]:
@@ -91,8 +119,8 @@ def hr_size_for(lr_size, scale: Scale) -> tuple[int, int]:
     (which :func:`lr_size_for` maps back to ``lr_size``)."""
     if isinstance(scale, int):
         return tuple(int(v) * scale for v in lr_size)
-    s = as_fraction(scale)
-    return tuple(_round_half_up(int(v) * s) for v in lr_size)
+    num, den = as_fraction(scale)
+    return tuple((2 * int(v) * num + den) // (2 * den) for v in lr_size)  # floor(lr * num / den + 1/2)
 
 
 def size_mismatch(lr_size, hr_size, scale: Scale) -> str | None:
@@ -109,24 +137,24 @@ def size_mismatch(lr_size, hr_size, scale: Scale) -> str | None:
     return None
 
 
-def axis_ratios(lr_size, hr_size) -> tuple[Fraction, Fraction]:
-    """The exact ``hr / lr`` of each axis ``(x, y)``."""
-    return Fraction(int(hr_size[0]), int(lr_size[0])), Fraction(int(hr_size[1]), int(lr_size[1]))
+def axis_ratios(lr_size, hr_size) -> tuple[Ratio, Ratio]:
+    """The exact ``hr / lr`` of each axis ``(x, y)``, reduced."""
+    return Ratio.of(hr_size[0], lr_size[0]), Ratio.of(hr_size[1], lr_size[1])
 
 
 def crop_step(lr_size, hr_size) -> tuple[int, int]:
     """LR pixels ``(x, y)`` whose multiples map to whole HR pixels: the ratios' denominators."""
     rx, ry = axis_ratios(lr_size, hr_size)
-    return rx.denominator, ry.denominator
+    return rx.den, ry.den
 
 
-def lr_to_hr(value: int, ratio: Fraction, what: str = "offset") -> int:
+def lr_to_hr(value: int, ratio: Ratio, what: str = "offset") -> int:
     """An LR pixel count or offset in HR pixels; a UserError unless it maps to a whole pixel."""
-    hr = value * ratio
-    if hr.denominator != 1:
-        raise UserError(f"LR {what} {value} maps to {float(hr):g} HR pixels at ratio {ratio}: "
-                        f"not a whole pixel (use multiples of {ratio.denominator})")
-    return int(hr)
+    hr, rest = divmod(int(value) * ratio.num, ratio.den)
+    if rest:
+        raise UserError(f"LR {what} {value} maps to {value * ratio.num / ratio.den:g} HR pixels at ratio {ratio}: "
+                        f"not a whole pixel (use multiples of {ratio.den})")
+    return hr
 
 
 def resize_bilinear(image, size, offset=(0.0, 0.0)):
