@@ -296,22 +296,24 @@ def int8_at_size(model, calibration: Path, data: Path, name: str):
     from ..quantize.stage import QuantizeOptions, quantize_module
 
     samples = calibration_samples(model, open_data(calibration, model.scale, family=family_of(model)), CALIBRATION_SAMPLES)
-    art = at_size(quantize_module(npu_module(model), samples, QuantizeOptions(), name=name), npu_module(model), data)
+    art = at_size(quantize_module(npu_module(model), samples, QuantizeOptions(), name=name), npu_module(model), data, model)
     return int8_model(model, art)
 
 
-def at_size(art, module, data: Path):
+def at_size(art, module, data: Path, model=None):
     """``art`` (calibrated at the calibration data's size) retargeted to ``data``'s HR size: the int8
-    graph's tensors have fixed shapes, the scales and zero points stay."""
+    graph's tensors have fixed shapes, the scales and zero points stay.  With ``model`` the stage's
+    input shapes are traced from it (a net at LR rounded up to even keeps no ratio to the HR size)."""
     from types import SimpleNamespace
 
     from ..dataset import format as fmt
     from ..export.npu_stage import retarget
+    from ..model.families import npu_input_shapes
     from ..quantize.tflite_writer import to_tflite
 
     meta = fmt.read_meta(fmt.find_sequences(data)[0])
     hr_size = (meta.lr_size[0] * meta.scale, meta.lr_size[1] * meta.scale)
-    graph = retarget(art.graph, module, hr_size)
+    graph = retarget(art.graph, module, hr_size, npu_input_shapes(model, hr_size) if model is not None else None)
     return SimpleNamespace(graph=graph, tflite=to_tflite(graph), report=art.report)
 
 

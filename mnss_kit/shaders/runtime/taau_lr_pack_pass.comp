@@ -60,18 +60,16 @@ vec3 block_means(ivec2 p) {
     return sum / float(u_scale * u_scale);
 }
 
-// Channel `c` of LR texel `p` (already clamped into the image: the padding repeats the edge).
-float feature(ivec2 p, int c) {
+// The four channels of LR texel `p` in word `half` (0: channels 0-3, 1: channels 4-7); `p` is
+// already clamped into the image (the padding repeats the edge).
+vec4 features(ivec2 p, int half_index) {
     vec3 colour = colour_texel(color, p);
-    if (c < 3) return colour[c];
-    if (c >= 6) {
-        vec4 e = texelFetch(evidence, p, 0);
-        return c == 6 ? e.r : min(e.g, SPREAD_CAP);
-    }
     vec3 means = block_means(p);
-    if (c == 3) return means.x - rgb_to_ycocg(colour).x;
-    if (c == 4) return means.y;
-    return means.z / u_max_weight;
+    if (half_index == 0) {
+        return vec4(colour, means.x - rgb_to_ycocg(colour).x);
+    }
+    vec4 e = texelFetch(evidence, p, 0);
+    return vec4(means.y, means.z / u_max_weight, e.r, min(e.g, SPREAD_CAP));
 }
 
 void main() {
@@ -81,17 +79,13 @@ void main() {
     }
     QuantParams q = QuantParams(u_q_scale, u_q_reciprocal, u_q_use_reciprocal != 0, u_q_rounding, u_q_zero_point);
     ivec2 lr_size = textureSize(color, 0);
-    ivec2 padded = lr_size + lr_size % 2;
-    int total = padded.x * padded.y * CHANNELS;
+    int padded_width = lr_size.x + lr_size.x % 2;
+    int pixel = i / (CHANNELS / 4);  // CHANNELS is a multiple of 4: a word holds channels of one pixel
+    ivec2 p = min(ivec2(pixel % padded_width, pixel / padded_width), lr_size - 1);
+    vec4 v = features(p, i % (CHANNELS / 4));
     uint word = 0u;
     for (int k = 0; k < 4; k++) {
-        int b = 4 * i + k;
-        if (b >= total) {
-            break;
-        }
-        int pixel = b / CHANNELS;
-        ivec2 p = min(ivec2(pixel % padded.x, pixel / padded.x), lr_size - 1);
-        word |= word_of_int8(quantize_int8(feature(p, b % CHANNELS), q), k);
+        word |= word_of_int8(quantize_int8(v[k], q), k);
     }
     npu_input[i] = word;
 }
