@@ -13,8 +13,9 @@ evaluation loop runs these exactly like the model.
              :mod:`mnss_kit.ops.fsr2`, run on the numpy reference itself.
 
 Scales: all three take an integer scale; at a fractional one (a quality mode such as 1.5x,
-``ops.scale``) only ``Bicubic`` runs so far (``FRACTIONAL_BASELINES``): TAAU and FSR2 refuse it with
-one line, and the default baselines at such a scale are the ones that take it.
+``ops.scale``) ``Bicubic`` and ``TAAU`` run (``FRACTIONAL_BASELINES``; TAAU maps each HR pixel to
+LR by the exact per-axis ratio, ``model.taau``): FSR2 refuses it with one line, and the default
+baselines at such a scale are the ones that take it.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import torch
 import torch.nn.functional as F
 
 from ..errors import UserError
-from ..model.taau import TAAUInputs, TAAUParams, bicubic_upsample, blend, sanitize_colour, taau_inputs
+from ..model.taau import TAAUInputs, TAAUParams, bicubic_resample, bicubic_upsample, blend, taau_inputs
 from ..ops import scale as scales
 from ..ops.fsr2 import FSR2Params, fsr2_frame
 
@@ -63,26 +64,6 @@ class Bicubic:
         return self.upsample(frame["color"], frame["jitter"]).clamp(0.0, 1.0), {}, state
 
 
-def bicubic_resample(color: torch.Tensor, jitter: torch.Tensor, size) -> torch.Tensor:
-    """Jitter-aware bicubic at any scale (A = -0.75, clamp-to-edge), not clamped: ``(N, C, h, w)``,
-    jitter ``(N, 2)`` LR pixels -> ``(N, C, H, W)`` for ``size = (W, H)``.
-
-    The fractional-scale counterpart of ``model.taau.bicubic_upsample`` (which integer scales keep,
-    bit for bit): HR pixel centre ``X + 0.5`` sits at LR position ``(X + 0.5) * w / W`` (the exact
-    ratio of each axis), and the LR texel grid is shifted by the jitter, as there."""
-    color = sanitize_colour(color)
-    n, _, h, w = color.shape
-    width, height = int(size[0]), int(size[1])
-    xs = (torch.arange(width, dtype=torch.float64) + 0.5) * (w / width)
-    ys = (torch.arange(height, dtype=torch.float64) + 0.5) * (h / height)
-    jx = jitter[:, 0].to(torch.float64).view(n, 1, 1)
-    jy = jitter[:, 1].to(torch.float64).view(n, 1, 1)
-    gx = 2.0 * (xs.view(1, 1, -1) - jx) / w - 1.0
-    gy = 2.0 * (ys.view(1, -1, 1) - jy) / h - 1.0
-    grid = torch.stack(torch.broadcast_tensors(gx, gy), dim=-1).to(color.dtype)
-    return F.grid_sample(color, grid, mode="bicubic", padding_mode="border", align_corners=False)
-
-
 def _integer_scale(method: str, scale) -> int:
     """``scale`` as an int, or the one-line refusal of a method that takes integer scales only."""
     if not float(scale).is_integer():
@@ -95,9 +76,21 @@ class TAAU:
     """Temporal anti-aliasing upsampler (:mod:`mnss_kit.model.taau`; keyword arguments are its
     :class:`~mnss_kit.model.taau.TAAUParams`)."""
 
-    def __init__(self, scale: int, **params):
-        self.scale = _integer_scale("taau", scale)
+    def __init__(self, scale: int | float, **params):
+        # an integer scale stays the int it was (bit-identical results); a fractional one is checked
+        self.scale = int(scale) if float(scale).is_integer() else scales.parse_scale(scale)
         self.params = TAAUParams(**params)
+        self.output_size: tuple[int, int] | None = None  # (W, H) of a fractional scale's output
+
+    def set_output_size(self, hr_size) -> None:
+        """The HR size ``(W, H)`` of the sequence about to run (as ``Bicubic.set_output_size``)."""
+        self.output_size = (int(hr_size[0]), int(hr_size[1]))
+
+    def _hr_size(self, color: torch.Tensor, state):
+        if state is not None or isinstance(self.scale, int) or self.output_size is None:
+            return None  # the history's size, or the integer scale's
+        h, w = color.shape[-2:]
+        return self.output_size if scales.size_mismatch((w, h), self.output_size, self.scale) is None else None
 
     def __call__(self, frame: dict, state):
         output, _, new_state = self.step(frame, state)
@@ -110,7 +103,8 @@ class TAAU:
         reset = frame.get("reset")
         reset = color.new_zeros(color.shape[0]) if reset is None else reset.to(color)
         with torch.no_grad():
-            inputs = taau_inputs(color, frame["jitter"], frame["motion"], reset, state, self.scale, self.params)
+            inputs = taau_inputs(color, frame["jitter"], frame["motion"], reset, state, self.scale, self.params,
+                                 self._hr_size(color, state))
             output, new_state = blend(inputs, self.params)
         return output, inputs, new_state
 
@@ -148,7 +142,7 @@ def _hwc(x: torch.Tensor):
 
 
 BASELINES = {"bicubic": Bicubic, "taau": TAAU, "fsr2": FSR2}
-FRACTIONAL_BASELINES = ("bicubic",)  # the baselines that take a fractional scale (1.5x, 1.7x) so far
+FRACTIONAL_BASELINES = ("bicubic", "taau")  # the baselines that take a fractional scale (1.5x, 1.7x) so far
 DEFAULT_BASELINES = ("bicubic", "taau")
 
 

@@ -27,6 +27,14 @@ def model_method(model: torch.nn.Module) -> Method:
             state = model.initial_state(frame)
         return model(frame, state)
 
+    return _with_output_size(run, model)
+
+
+def _with_output_size(run, model):
+    """``run`` with the model's ``set_output_size`` (a fractional-scale family's: the eval loop gives it
+    the sequence's HR size, as the baselines get it)."""
+    if hasattr(model, "set_output_size"):
+        run.set_output_size = model.set_output_size
     return run
 
 
@@ -38,7 +46,7 @@ def no_history_method(model: torch.nn.Module) -> Method:
         output, aux, _ = model(frame, model.initial_state(frame))
         return output, aux, None
 
-    return run
+    return _with_output_size(run, model)
 
 
 def default_methods(model: torch.nn.Module | None, scale: int) -> dict[str, Method]:

@@ -36,7 +36,10 @@ import torch
 import torch.nn.functional as F
 
 from .layers import offscreen, upsample_motion, warp_bilinear
+from ..ops import scale as scales
 from ..ops.sanitize import COLOUR_MAX, FAR_DEPTH
+
+Scale = int | float
 
 
 def sanitize_colour(color: torch.Tensor) -> torch.Tensor:
@@ -152,17 +155,82 @@ def ycocg_to_rgb(x: torch.Tensor) -> torch.Tensor:
     return torch.stack([y + co - cg, y + cg, y - co - cg], dim=1)
 
 
-def nearest_up(x: torch.Tensor, s: int) -> torch.Tensor:
-    return x.repeat_interleave(s, dim=2).repeat_interleave(s, dim=3)
+def hr_dims(lr_hw: tuple[int, int], scale: Scale, hr_size=None) -> tuple[int, int]:
+    """``(H, W)`` of the HR image for an LR image of ``(h, w)``: ``hr_size`` ``(W, H)`` when given,
+    else ``h * s, w * s`` at an integer scale and ``round_half_up(lr * s)`` per axis at a fractional
+    one (``ops.scale.hr_size_for``; data made from a display size may differ: give its ``hr_size``)."""
+    h, w = int(lr_hw[0]), int(lr_hw[1])
+    if hr_size is not None:
+        return int(hr_size[1]), int(hr_size[0])
+    if scales.is_integer(scale):
+        return h * int(scale), w * int(scale)
+    width, height = scales.hr_size_for((w, h), scale)
+    return height, width
 
 
-def bicubic_upsample(color: torch.Tensor, jitter: torch.Tensor, scale: int) -> torch.Tensor:
+def is_tiled(lr_hw, hr_hw, scale: Scale) -> bool:
+    """Every HR pixel is one of its LR pixel's ``s x s`` tile: an integer scale at exactly ``lr * s``
+    (the integer code paths, bit for bit as before fractional scales)."""
+    return scales.is_integer(scale) and tuple(hr_hw) == (int(lr_hw[0]) * int(scale), int(lr_hw[1]) * int(scale))
+
+
+def nearest_index(n_hr: int, n_lr: int, device=None) -> torch.Tensor:
+    """The LR pixel of each HR pixel along one axis (int64 ``(n_hr,)``): ``floor((X + 0.5) lr / hr)``,
+    computed exactly in integers (``X // s`` at an integer scale)."""
+    return ((2 * torch.arange(n_hr, device=device) + 1) * n_lr) // (2 * n_hr)
+
+
+def nearest_up(x: torch.Tensor, s: Scale, hr_size=None) -> torch.Tensor:
+    """``(N, C, h, w)`` -> ``(N, C, H, W)``, each HR pixel the LR pixel it maps to (``nearest_index``):
+    ``repeat_interleave`` at an integer scale."""
+    hr_hw = hr_dims(x.shape[-2:], s, hr_size)
+    if is_tiled(x.shape[-2:], hr_hw, s):
+        s = int(s)
+        return x.repeat_interleave(s, dim=2).repeat_interleave(s, dim=3)
+    rows = nearest_index(hr_hw[0], x.shape[-2], x.device)
+    cols = nearest_index(hr_hw[1], x.shape[-1], x.device)
+    return x.index_select(2, rows).index_select(3, cols)
+
+
+def block_mean(x: torch.Tensor, lr_hw, scale: Scale) -> torch.Tensor:
+    """The mean of each LR pixel's HR block ``(N, C, H, W)`` -> ``(N, C, h, w)``: the HR pixels whose
+    nearest LR pixel it is (``nearest_index``); ``avg_pool2d`` over ``s x s`` tiles at an integer scale.
+    At a ratio above 1 every LR pixel has at least one HR pixel (1 or 2 at 1.5x)."""
+    h, w = int(lr_hw[0]), int(lr_hw[1])
+    if is_tiled((h, w), x.shape[-2:], scale):
+        return F.avg_pool2d(x, int(scale))
+    n, c, hh, ww = x.shape
+    rows, cols = nearest_index(hh, h, x.device), nearest_index(ww, w, x.device)
+    sums = x.new_zeros(n, c, h, ww).index_add(2, rows, x)
+    sums = x.new_zeros(n, c, h, w).index_add(3, cols, sums)
+    count = torch.bincount(rows, minlength=h).view(h, 1) * torch.bincount(cols, minlength=w).view(1, w)
+    return sums / count.to(x.dtype)
+
+
+def hr_motion_of(motion: torch.Tensor, scale: Scale, hr_size=None) -> torch.Tensor:
+    """LR motion ``(N, 2, h, w)`` in LR pixels -> HR motion in HR pixels: ``layers.upsample_motion``
+    at an integer scale; else bilinear to the HR size (``F.interpolate(size=...)``, texel centres,
+    clamp-to-edge) times each axis's exact ratio ``W / w``, ``H / h`` (``ops.scale.upsample_motion_to``)."""
+    h, w = motion.shape[-2:]
+    hr_hw = hr_dims((h, w), scale, hr_size)
+    if is_tiled((h, w), hr_hw, scale):
+        return upsample_motion(motion, int(scale))
+    up = F.interpolate(motion, size=hr_hw, mode="bilinear", align_corners=False)
+    ratio = torch.tensor([hr_hw[1] / w, hr_hw[0] / h], dtype=motion.dtype, device=motion.device).view(1, 2, 1, 1)
+    return up * ratio
+
+
+def bicubic_upsample(color: torch.Tensor, jitter: torch.Tensor, scale: Scale, hr_size=None) -> torch.Tensor:
     """Jitter-aware bicubic (A = -0.75, clamp-to-edge), not clamped: each LR sample placed where it
-    was shaded (pixel centre + jitter).  ``(N, C, h, w)``, ``(N, 2)`` -> ``(N, C, h*s, w*s)``.  The
-    colour is sanitized first (NaN / Inf in an input frame: the bicubic baseline costs one frame)."""
+    was shaded (pixel centre + jitter).  ``(N, C, h, w)``, ``(N, 2)`` -> ``(N, C, h*s, w*s)`` (at a
+    fractional scale ``(N, C, H, W)``, ``bicubic_resample``).  The colour is sanitized first (NaN /
+    Inf in an input frame: the bicubic baseline costs one frame)."""
+    hr_hw = hr_dims(color.shape[-2:], scale, hr_size)
+    if not is_tiled(color.shape[-2:], hr_hw, scale):
+        return bicubic_resample(color, jitter, (hr_hw[1], hr_hw[0]))
     color = sanitize_colour(color)
     n, _, h, w = color.shape
-    s = scale
+    s = int(scale)
     # HR pixel centres in LR pixel units; the LR texel grid is shifted by the jitter.
     xs = (torch.arange(w * s, dtype=color.dtype) + 0.5) / s
     ys = (torch.arange(h * s, dtype=color.dtype) + 0.5) / s
@@ -174,37 +242,61 @@ def bicubic_upsample(color: torch.Tensor, jitter: torch.Tensor, scale: int) -> t
     return F.grid_sample(color, grid, mode="bicubic", padding_mode="border", align_corners=False)
 
 
-def nearby_samples(current: torch.Tensor, jitter: torch.Tensor, scale: int, sigma: float) -> tuple[torch.Tensor, torch.Tensor]:
+def bicubic_resample(color: torch.Tensor, jitter: torch.Tensor, size) -> torch.Tensor:
+    """Jitter-aware bicubic at any scale (A = -0.75, clamp-to-edge), not clamped: ``(N, C, h, w)``,
+    jitter ``(N, 2)`` LR pixels -> ``(N, C, H, W)`` for ``size = (W, H)``.
+
+    The fractional-scale counterpart of ``bicubic_upsample`` (which integer scales keep, bit for
+    bit): HR pixel centre ``X + 0.5`` sits at LR position ``(X + 0.5) * w / W`` (the exact ratio of
+    each axis), and the LR texel grid is shifted by the jitter, as there."""
+    color = sanitize_colour(color)
+    n, _, h, w = color.shape
+    width, height = int(size[0]), int(size[1])
+    xs = (torch.arange(width, dtype=torch.float64) + 0.5) * (w / width)
+    ys = (torch.arange(height, dtype=torch.float64) + 0.5) * (h / height)
+    jx = jitter[:, 0].to(torch.float64).view(n, 1, 1)
+    jy = jitter[:, 1].to(torch.float64).view(n, 1, 1)
+    gx = 2.0 * (xs.view(1, 1, -1) - jx) / w - 1.0
+    gy = 2.0 * (ys.view(1, -1, 1) - jy) / h - 1.0
+    grid = torch.stack(torch.broadcast_tensors(gx, gy), dim=-1).to(color.dtype)
+    return F.grid_sample(color, grid, mode="bicubic", padding_mode="border", align_corners=False)
+
+
+def nearby_samples(current: torch.Tensor, jitter: torch.Tensor, scale: Scale, sigma: float,
+                   hr_size=None) -> tuple[torch.Tensor, torch.Tensor]:
     """Gaussian-weighted mean of the 3x3 LR samples around each HR pixel and their total weight.
 
-    Returns ``(N, 3, H, W)`` colour and ``(N, 1, H, W)`` weight.  Sample ``(i, j)`` sits at HR
-    position ``s * (j + 0.5 + jx), s * (i + 0.5 + jy)``.
+    Returns ``(N, 3, H, W)`` colour and ``(N, 1, H, W)`` weight.  HR pixel ``(Y, X)`` belongs to LR
+    pixel ``nearest_index``; sample ``(i, j)`` sits at HR position ``rx (j + 0.5 + jx), ry (i + 0.5 + jy)``
+    with the exact per-axis ratios ``rx = W / w``, ``ry = H / h`` (``s`` at an integer scale).
     """
     n, c, h, w = current.shape
-    s = scale
+    hh, ww = hr_dims((h, w), scale, hr_size)
+    rx, ry = ww / w, hh / h
     padded = F.pad(current, (1, 1, 1, 1), mode="replicate")
-    hr_x = torch.arange(w * s, dtype=current.dtype)
-    hr_y = torch.arange(h * s, dtype=current.dtype)
+    hr_x = torch.arange(ww, dtype=current.dtype)
+    hr_y = torch.arange(hh, dtype=current.dtype)
     jx = jitter[:, 0].to(current.dtype).view(n, 1)
     jy = jitter[:, 1].to(current.dtype).view(n, 1)
     inv = -0.5 / (sigma**2)
-    total = current.new_zeros(n, 1, h * s, w * s)
-    acc = current.new_zeros(n, c, h * s, w * s)
-    lr_y = torch.div(hr_y, s, rounding_mode="floor") + 0.5
-    lr_x = torch.div(hr_x, s, rounding_mode="floor") + 0.5
+    total = current.new_zeros(n, 1, hh, ww)
+    acc = current.new_zeros(n, c, hh, ww)
+    lr_y = nearest_index(hh, h).to(current.dtype) + 0.5
+    lr_x = nearest_index(ww, w).to(current.dtype) + 0.5
     for dy in (-1, 0, 1):
         # the Gaussian is separable: weight = wy(row) * wx(column)
-        wy = torch.exp(inv * (((lr_y + dy).view(1, -1) + jy) * s - (hr_y + 0.5)) ** 2).view(n, 1, -1, 1)
+        wy = torch.exp(inv * (((lr_y + dy).view(1, -1) + jy) * ry - (hr_y + 0.5)) ** 2).view(n, 1, -1, 1)
         for dx in (-1, 0, 1):
-            wx = torch.exp(inv * (((lr_x + dx).view(1, -1) + jx) * s - (hr_x + 0.5)) ** 2).view(n, 1, 1, -1)
+            wx = torch.exp(inv * (((lr_x + dx).view(1, -1) + jx) * rx - (hr_x + 0.5)) ** 2).view(n, 1, 1, -1)
             wgt = wy * wx
             shifted = padded[:, :, 1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w]
-            acc = acc + wgt * nearest_up(shifted, s)
+            acc = acc + wgt * nearest_up(shifted, scale, (ww, hh))
             total = total + wgt
     return acc / total.clamp(min=1e-12), total
 
 
-def neighbourhood_box(current: torch.Tensor, scale: int, params: TAAUParams) -> tuple[torch.Tensor, torch.Tensor]:
+def neighbourhood_box(current: torch.Tensor, scale: Scale, params: TAAUParams,
+                      hr_size=None) -> tuple[torch.Tensor, torch.Tensor]:
     """Per-HR-pixel colour box ``(lo, hi)``, each ``(N, 3, H, W)``, from the 3x3 LR neighbourhood."""
     padded = F.pad(current, (1, 1, 1, 1), mode="replicate")
     if params.clip == "minmax":
@@ -214,7 +306,7 @@ def neighbourhood_box(current: torch.Tensor, scale: int, params: TAAUParams) -> 
         mean = F.avg_pool2d(padded, 3, stride=1)
         std = (F.avg_pool2d(padded * padded, 3, stride=1) - mean * mean).clamp(min=0).sqrt()
         lo, hi = mean - params.gamma * std, mean + params.gamma * std
-    return nearest_up(lo, scale), nearest_up(hi, scale)
+    return nearest_up(lo, scale, hr_size), nearest_up(hi, scale, hr_size)
 
 
 def undo_bilinear_blur(image: torch.Tensor, spread: torch.Tensor) -> torch.Tensor:
@@ -261,15 +353,19 @@ class TAAUInputs:
 
 
 def taau_inputs(color: torch.Tensor, jitter: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor, state: dict | None,
-                scale: int, params: TAAUParams) -> TAAUInputs:
+                scale: Scale, params: TAAUParams, hr_size=None) -> TAAUInputs:
     """The blend's inputs for LR ``color`` (N,3,h,w) RGB; ``state`` None: no history.  Colour and
-    motion are sanitized (``ops.sanitize``): a NaN or Inf in one input frame never reaches the history."""
+    motion are sanitized (``ops.sanitize``): a NaN or Inf in one input frame never reaches the history.
+    The HR size ``(W, H)``: ``hr_size``, else the history's, else ``hr_dims`` of the scale."""
+    if hr_size is None and state is not None:
+        hr_size = (state["history"].shape[-1], state["history"].shape[-2])
+    hr_size = tuple(reversed(hr_dims(color.shape[-2:], scale, hr_size)))
     color, motion = sanitize_colour(color), sanitize_motion(motion)
     current = rgb_to_ycocg(color)
-    samples, sample_weight = nearby_samples(current, jitter, scale, params.sample_sigma)
-    spatial = rgb_to_ycocg(bicubic_upsample(color, jitter, scale))
-    lo, hi = neighbourhood_box(current, scale, params)
-    hr_motion = upsample_motion(motion, scale)
+    samples, sample_weight = nearby_samples(current, jitter, scale, params.sample_sigma, hr_size)
+    spatial = rgb_to_ycocg(bicubic_upsample(color, jitter, scale, hr_size))
+    lo, hi = neighbourhood_box(current, scale, params, hr_size)
+    hr_motion = hr_motion_of(motion, scale, hr_size)
     if state is None:
         history, weight = spatial, torch.zeros_like(spatial[:, :1])
     else:

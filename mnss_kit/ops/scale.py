@@ -45,8 +45,7 @@ INTEGER_SCALE_ONLY = {
     "mnss": "its pixel insertion puts each LR sample into one of the s x s HR pixels of its tile",
     "fusesr": "its pixel unshuffle folds s x s HR pixels into channels",
     "ntaau": "its steering net's outputs are pixel-shuffled by s",
-    "ntaau_lr": "its TAAU accumulation takes an integer scale so far",
-}
+}  # ntaau_lr takes any scale: its net runs at LR and its TAAU maps HR pixels to LR by the exact ratio
 
 
 class Ratio(NamedTuple):

@@ -112,18 +112,18 @@ def test_data_info_shows_the_fractional_scale(fractional_data, capsys):
     assert "1.5" in out and "1.7" in out and "47x26" in out and "80x45" in out
 
 
-def test_eval_bicubic_at_fractional_scales(fractional_data, capsys):
+def test_eval_bicubic_and_taau_at_fractional_scales(fractional_data, capsys):
     for seq, scale in (("q15", "1.5"), ("b17", "1.7")):
         code = main(["eval", "none", "--data", str(fractional_data / seq), "--scale", scale, "--no-progress"])
         out = capsys.readouterr().out
-        assert code == 0 and "bicubic" in out and "taau" not in out
+        assert code == 0 and "bicubic" in out and "taau" in out
 
 
 @pytest.mark.parametrize("args, message", [
     (["--scale", "0.5"], "--scale 0.5 is outside"), (["--scale", "1.0"], "--scale 1 is outside"),
     (["--scale", "nan"], "finite"), (["--scale", "9"], "--scale 9 is outside"),
     (["--scale", "2"], "data is x1.5 but --scale is 2"),
-    (["--methods", "taau"], "the taau baseline takes integer scales only"),
+    (["--methods", "fsr2"], "the fsr2 baseline takes integer scales only"),
 ])
 def test_eval_refuses_bad_scales_in_one_line(fractional_data, capsys, args, message):
     code = main(["eval", "none", "--data", str(fractional_data / "q15"), "--no-progress", *args])

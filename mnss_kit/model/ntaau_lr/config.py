@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-SCALES = (2, 3, 4)
+SCALES = (2, 3, 4)  # the integer scales; any scale in [1.25, 4] is taken (``ops.scale.parse_scale``)
 FEATURE_CHANNELS = 8  # per LR pixel: colour (3), history luma - colour luma, clamp distance, history weight,
 #                       depth change since the last frame, motion spread
 STEER_CHANNELS = 6  # per LR pixel: history gain, sample gain, box widening, spatial fallback, filter (2)
@@ -18,7 +18,7 @@ class NTAAULRConfig:
     Zero net outputs are the toolkit's TAAU."""
 
     family: Literal["ntaau_lr"] = "ntaau_lr"
-    scale: int = 2
+    scale: int | float = 2  # 2, 3, 4 or a fractional quality mode such as 1.5 or 1.7 (an integral float becomes an int)
     width: int = 16  # channels at LR; the half-resolution level has twice as many
     mid_layers: int = 2  # 3x3 convs at half LR resolution (the encoder-decoder's inner level), >= 1
     box_bound: float = 2.0  # the clamp box widens by at most this times its span per side
@@ -30,10 +30,19 @@ class NTAAULRConfig:
     # object, where dilated or rigid motion vectors are wrong)
     trust_spread_px: float = 1.0
     alpha: float = 0.1  # TAAU's converged blend factor (model.taau.TAAUParams)
+    # the NPU input gets a 9th channel, 1 / scale (a constant map), so one checkpoint can serve several scales
+    scale_input: bool = False
 
     def __post_init__(self):
-        if self.scale not in SCALES:
-            raise ValueError(f"scale must be one of {list(SCALES)}, got {self.scale}")
+        from ...errors import UserError
+        from ...ops.scale import MAX_SCALE, MIN_SCALE, parse_scale
+
+        if isinstance(self.scale, bool) or not isinstance(self.scale, (int, float)):
+            raise ValueError(f"scale must be a number in [{MIN_SCALE}, {MAX_SCALE}], got {self.scale!r}")
+        try:
+            self.scale = parse_scale(self.scale)  # an integral value stays (or becomes) an int: 2, not 2.0
+        except UserError as e:
+            raise ValueError(str(e)) from None
         if self.width < 2 or self.mid_layers < 1:
             raise ValueError("width must be >= 2 and mid_layers >= 1")
         if not 0.0 < self.box_bound <= 4.0:
@@ -44,7 +53,7 @@ class NTAAULRConfig:
             raise ValueError("trust_depth and trust_spread_px must be > 0")
 
     def npu_input_channels(self) -> int:
-        return FEATURE_CHANNELS
+        return FEATURE_CHANNELS + (1 if self.scale_input else 0)
 
     def steer_channels(self) -> int:
         return STEER_CHANNELS

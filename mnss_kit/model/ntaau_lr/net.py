@@ -1,8 +1,10 @@
 """Neural TAAU steered at LR: a small encoder-decoder at LR reads what the GPU can cheaply tell
 about each pixel's history and steers the toolkit's TAAU accumulation, with a way out of it.
 
-Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``
-(``model.taau`` defines every step of the accumulation):
+Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw`` (at a fractional
+scale such as 1.5 or 1.7, ``round_half_up(s h) x round_half_up(s w)`` or the data's HR size, each
+HR pixel mapped to LR by the exact per-axis ratio; ``model.taau`` defines every step of the
+accumulation):
 
     lr_gather   (gpu)  TAAU's inputs (``model.taau.taau_inputs``) and 8 features per LR pixel:
                        the LR colour, the clamped history's luma minus the colour's, the clamp
@@ -40,8 +42,9 @@ from torch import nn
 
 from ..family import check_frame
 from ..layers import warp_bilinear
-from ..taau import (Steer, TAAUInputs, TAAUParams, blend, box_widening, rgb_to_ycocg, sanitize_colour, sanitize_depth,
-                    sanitize_motion, taau_inputs)
+from ..taau import (Steer, TAAUInputs, TAAUParams, blend, block_mean, box_widening, hr_dims, is_tiled, rgb_to_ycocg,
+                    sanitize_colour, sanitize_depth, sanitize_motion, taau_inputs)
+from ...ops.scale import size_mismatch
 from .config import NTAAULRConfig
 
 STAGE_ORDER = ("lr_gather", "steer", "lr_accumulate")
@@ -89,17 +92,24 @@ class Gather(nn.Module):
         super().__init__()
         self.config, self.params = config, params
 
-    def forward(self, color, depth, previous_depth, jitter, motion, reset, state):
-        """-> (TAAUInputs, trust (N, 1, h, w), features (N, 8, h', w') with h', w' the even size)."""
+    def forward(self, color, depth, previous_depth, jitter, motion, reset, state, hr_size=None):
+        """-> (TAAUInputs, trust (N, 1, h, w), features (N, 8 or 9, h', w') with h', w' the even size).
+        The block means are ``model.taau.block_mean`` (``avg_pool2d`` over s x s at an integer scale,
+        the HR pixels nearest each LR pixel at a fractional one); ``hr_size`` ``(W, H)`` or None
+        (the history's, else ``model.taau.hr_dims``)."""
         s = self.config.scale
-        inputs = taau_inputs(color, jitter, motion, reset, state, s, self.params)
+        lr_hw = color.shape[-2:]
+        inputs = taau_inputs(color, jitter, motion, reset, state, s, self.params, hr_size)
         clamped = torch.minimum(torch.maximum(inputs.history, inputs.lo), inputs.hi)
-        distance = F.avg_pool2d((inputs.history - clamped).abs().sum(dim=1, keepdim=True), s)
-        weight = F.avg_pool2d(inputs.history_weight, s) / self.params.max_weight
-        luma_gap = F.avg_pool2d(clamped[:, :1], s) - rgb_to_ycocg(color)[:, :1]
+        distance = block_mean((inputs.history - clamped).abs().sum(dim=1, keepdim=True), lr_hw, s)
+        weight = block_mean(inputs.history_weight, lr_hw, s) / self.params.max_weight
+        luma_gap = block_mean(clamped[:, :1], lr_hw, s) - rgb_to_ycocg(color)[:, :1]
         change = depth_change(depth, previous_depth, motion)
         spread = motion_spread(motion)
-        features = torch.cat([color, luma_gap, distance, weight, change, spread.clamp(max=4.0)], dim=1)
+        parts = [color, luma_gap, distance, weight, change, spread.clamp(max=4.0)]
+        if self.config.scale_input:  # 1 / s, a constant map: one checkpoint for several scales
+            parts.append(torch.full_like(change, 1.0 / float(s)))
+        features = torch.cat(parts, dim=1)
         return inputs, trust(change, spread, self.config), pad_even(features)
 
 
@@ -135,11 +145,17 @@ def _conv(c_in: int, c_out: int, k: int) -> nn.Conv2d:
     return conv
 
 
-def steer_from_lr(raw: torch.Tensor, trust_lr: torch.Tensor, config: NTAAULRConfig) -> Steer:
+def steer_from_lr(raw: torch.Tensor, trust_lr: torch.Tensor, config: NTAAULRConfig, hr_size=None) -> Steer:
     """The raw LR steering (N, 6, h, w) and the trust map (N, 1, h, w), upsampled bilinearly to HR
-    (clamp-to-edge, texel centres as a GPU's linear filter), mapped to their ranges."""
+    (clamp-to-edge, texel centres as a GPU's linear filter), mapped to their ranges.  The HR size
+    ``(W, H)``: ``hr_size``, else ``model.taau.hr_dims`` of the scale."""
     s = config.scale
-    hr = F.interpolate(torch.cat([raw, trust_lr], dim=1), scale_factor=s, mode="bilinear", align_corners=False)
+    both = torch.cat([raw, trust_lr], dim=1)
+    hr_hw = hr_dims(both.shape[-2:], s, hr_size)
+    if is_tiled(both.shape[-2:], hr_hw, s):
+        hr = F.interpolate(both, scale_factor=int(s), mode="bilinear", align_corners=False)
+    else:
+        hr = F.interpolate(both, size=hr_hw, mode="bilinear", align_corners=False)
     allowed = hr[:, 6:7]
     history_gain = 2.0 * torch.sigmoid(hr[:, 0:1])
     history_gain = torch.where(history_gain > 1.0, 1.0 + (history_gain - 1.0) * allowed, history_gain)
@@ -162,7 +178,8 @@ class Accumulate(nn.Module):
 
     def forward(self, inputs: TAAUInputs, trust_lr, raw):
         h, w = trust_lr.shape[-2:]
-        return blend(inputs, self.params, steer_from_lr(raw[:, :, :h, :w], trust_lr, self.config))
+        hr_size = (inputs.samples.shape[-1], inputs.samples.shape[-2])
+        return blend(inputs, self.params, steer_from_lr(raw[:, :, :h, :w], trust_lr, self.config, hr_size))
 
 
 class NTAAULR(nn.Module):
@@ -176,6 +193,20 @@ class NTAAULR(nn.Module):
         self.lr_gather = Gather(config, self.params)
         self.steer = SteerNet(config.npu_input_channels(), config.width, config.mid_layers, config.steer_channels())
         self.lr_accumulate = Accumulate(self.params, config)
+        # (W, H) of the output at a fractional scale when it is not round_half_up(lr * s) (data made from a
+        # display size: 1280x720 at 1.7 renders 753x424, and 424 * 1.7 rounds to 721); None: hr_dims
+        self.output_size: tuple[int, int] | None = None
+
+    def set_output_size(self, hr_size) -> None:
+        """The HR size ``(W, H)`` of the frames about to run (the eval loop calls it); None: the scale's."""
+        self.output_size = None if hr_size is None else (int(hr_size[0]), int(hr_size[1]))
+
+    def hr_size(self, lr_hw) -> tuple[int, int]:
+        """``(W, H)`` of the output for LR frames of ``(h, w)``."""
+        if self.output_size is not None and size_mismatch((lr_hw[1], lr_hw[0]), self.output_size, self.scale) is None:
+            return self.output_size
+        height, width = hr_dims(lr_hw, self.scale)
+        return width, height
 
     def stages(self) -> list[tuple[str, nn.Module, str]]:
         return [(n, getattr(self, n), getattr(self, n).placement) for n in STAGE_ORDER]
@@ -183,8 +214,8 @@ class NTAAULR(nn.Module):
     def initial_state(self, frame: dict) -> dict:
         color = frame["color"]
         n, _, h, w = color.shape
-        s = self.scale
-        return {"history": color.new_zeros(n, 3, h * s, w * s), "weight": color.new_zeros(n, 1, h * s, w * s),
+        width, height = self.hr_size((h, w))
+        return {"history": color.new_zeros(n, 3, height, width), "weight": color.new_zeros(n, 1, height, width),
                 "depth": sanitize_depth(frame["depth"]).clone()}
 
     def forward(self, frame: dict, state: dict | None = None):
@@ -201,7 +232,8 @@ class NTAAULR(nn.Module):
         cut = (reset > 0.5).view(n, 1, 1, 1)  # a cut history may hold anything, NaN included
         previous_depth = torch.where(cut, depth, state["depth"])
         state = {"history": torch.where(cut, 0.0, state["history"]), "weight": torch.where(cut, 0.0, state["weight"])}
-        inputs, trust_lr, features = self.lr_gather(color, depth, previous_depth, jitter, motion, reset, state)
+        hr_size = (state["history"].shape[-1], state["history"].shape[-2])
+        inputs, trust_lr, features = self.lr_gather(color, depth, previous_depth, jitter, motion, reset, state, hr_size)
         output, next_state = self.lr_accumulate(inputs, trust_lr, self.steer(features))
         with torch.no_grad():
             taau, _ = blend(inputs, self.params)
