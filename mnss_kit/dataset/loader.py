@@ -8,6 +8,7 @@ tensors (``docs/architecture.md``)::
     reference (T, 3, H, W)                                           HR target, display values
                                       (hr/reference, or the buffer ``reference`` names, e.g. reference_taa)
     hr_<buffer> (T, C, H, W), lr_<buffer> (T, C, h, w)               optional G-buffers
+    scale (T,)                                                       only with ``with_scale``: the nominal scale
 
 Crops sit at integer LR pixels, and the HR crop is the same screen area
 (offset and size times the scale), so the jitter offsets stay valid.  At a
@@ -15,7 +16,16 @@ fractional scale (``ops.scale``) an axis maps LR to HR by its exact ratio
 ``hr / lr = p / q``: an LR offset or size is a whole number of HR pixels only
 at multiples of ``q`` (2 for 72/48 = 3/2), so crop offsets are drawn on that
 grid and crop sizes must be multiples of it (a UserError names the step).  An
-axis whose ratio does not reduce (1280/753) takes whole-frame crops only.  Values
+axis whose ratio does not reduce (1280/753) takes whole-frame crops only.
+
+Several scales (``mixed_scales=True``, training one model at several quality
+modes): each sequence's ratio must be exactly its scale on both axes (648x360
+-> 432x240 at 1.5), so every crop on the grid of the scale's denominator ``q``
+maps to ``crop * s`` HR pixels exactly; the LR crop of each scale is the
+requested one rounded down to a multiple of ``q`` (32 -> 32 at 1.5 (HR 48),
+30 at 1.7 (HR 51), 32 at 2 and 3), and ``window_groups`` lists the windows
+of each scale, so a batch drawn from one group stacks.  Windows then carry
+``scale`` (T,), the sequence's nominal scale, the model's frame key.  Values
 come from ``format.read_buffer`` (canonical conventions), either straight from
 the EXR files or from the decoded cache (``cache.py``; colour then carries
 float16 rounding, below 2.5e-4 for display values).
@@ -211,7 +221,11 @@ class WindowDataset(Dataset):
         progress: bool = True,
         needed_by: str = "",
         augment: dict | None = None,
+        mixed_scales: bool = False,
+        with_scale: bool = False,
     ):
+        """``mixed_scales``: sequences of several scales are grouped by scale (``window_groups``)
+        instead of refused; ``with_scale``: every window carries ``scale`` (T,) float32."""
         if window < 1 or stride < 1:
             raise UserError(f"window and stride must be >= 1, got window={window} stride={stride}")
         self.window, self.seed, self.epoch = window, seed, 0
@@ -219,11 +233,17 @@ class WindowDataset(Dataset):
         self.window_starts_reset = window_starts_reset
         self.extra_keys = extra_buffer_keys(hr_buffers, lr_buffers)
         self.sequences = open_sequences(root, self.extra_keys, cache, cache_dir, progress, needed_by)
-        scales = {s.meta.scale for s in self.sequences}
-        if len(scales) != 1:
-            raise UserError(f"sequences have different scales {sorted(scales)}; train one scale at a time")
-        self.scale = scales.pop()
-        self.crop_size = self._check_crop(crop)
+        self.with_scale = with_scale
+        self.scales = sorted({s.meta.scale for s in self.sequences})
+        if len(self.scales) != 1 and not mixed_scales:
+            raise UserError(f"sequences have different scales {self.scales}; train one scale at a time")
+        self.scale = self.scales[0] if len(self.scales) == 1 else None  # None: several (window_groups)
+        if len(self.scales) == 1:
+            self.crop_size = self._check_crop(crop)
+            self.crop_sizes = {self.scale: self.crop_size}
+        else:
+            self.crop_sizes = self._mixed_crops(crop)
+            self.crop_size = None if crop is None else self._check_crop(crop, check_grid=False)
         self.windows = [(i, start) for i, s in enumerate(self.sequences) for start in range(0, s.meta.frame_count - window + 1, stride)]
         for s in self.sequences:
             if s.meta.frame_count < window:
@@ -231,7 +251,7 @@ class WindowDataset(Dataset):
         if not self.windows:
             raise UserError(f"no sequence has the {window} frames a window needs")
 
-    def _check_crop(self, crop: tuple[int, int] | None) -> tuple[int, int] | None:
+    def _check_crop(self, crop: tuple[int, int] | None, check_grid: bool = True) -> tuple[int, int] | None:
         if crop is None:
             return None
         cw, ch = (int(crop), int(crop)) if np.isscalar(crop) else (int(crop[0]), int(crop[1]))
@@ -239,12 +259,47 @@ class WindowDataset(Dataset):
             w, h = s.meta.lr_size
             if not (0 < cw <= w and 0 < ch <= h):
                 raise UserError(f"crop {cw}x{ch} (LR pixels) does not fit sequence {s.name} of LR size {w}x{h}")
+            if not check_grid:
+                continue
             qx, qy = scales.crop_step(s.meta.lr_size, s.meta.hr_size)
             if (cw % qx and cw != w) or (ch % qy and ch != h):
                 raise UserError(f"crop {cw}x{ch} (LR pixels) of sequence {s.name} (scale {s.meta.scale}, {w}x{h} -> "
                                 f"{s.meta.hr_size[0]}x{s.meta.hr_size[1]}) does not map to whole HR pixels: at its "
                                 f"ratio a crop is a multiple of {qx}x{qy} LR pixels (or the whole frame)")
         return cw, ch
+
+    def _mixed_crops(self, crop) -> dict:
+        """Per scale, the LR crop ``(w, h)`` (or None: full frames) of a dataset of several scales:
+        each sequence's ratio must be exactly its scale, and the requested crop is rounded down to
+        the grid of the scale's denominator."""
+        for s in self.sequences:
+            exact = scales.as_fraction(s.meta.scale)
+            if scales.axis_ratios(s.meta.lr_size, s.meta.hr_size) != (exact, exact):
+                (w, h), (hw, hh) = s.meta.lr_size, s.meta.hr_size
+                raise UserError(f"sequence {s.name} is {w}x{h} -> {hw}x{hh}, not exactly x{s.meta.scale} on both axes: "
+                                f"training on several scales needs sizes whose ratio is the scale (an hr_size divisible "
+                                f"by {exact.num}, e.g. {_exact_size_hint(s.meta.hr_size, exact)})")
+        if crop is None:
+            return {scale: None for scale in self.scales}
+        self._check_crop(crop, check_grid=False)  # fits every sequence
+        cw, ch = (int(crop), int(crop)) if np.isscalar(crop) else (int(crop[0]), int(crop[1]))
+        sizes = {}
+        for scale in self.scales:
+            q = scales.as_fraction(scale).den
+            sizes[scale] = (max(q, cw - cw % q), max(q, ch - ch % q))
+            frames = [s for s in self.sequences if s.meta.scale == scale]
+            if any(sizes[scale][0] > s.meta.lr_size[0] or sizes[scale][1] > s.meta.lr_size[1] for s in frames):
+                raise UserError(f"crop {cw}x{ch} (LR pixels) at x{scale} needs a multiple of {q}, which does not fit "
+                                f"sequence {frames[0].name} of LR size {frames[0].meta.lr_size[0]}x{frames[0].meta.lr_size[1]}")
+            log.info("x%s: LR crops %dx%d (HR %dx%d)", scale, *sizes[scale], *scales.hr_size_for(sizes[scale], scale))
+        return sizes
+
+    def window_groups(self) -> dict:
+        """``{scale: [window index, ...]}`` in ascending scale: the windows a batch of one scale draws from."""
+        groups = {scale: [] for scale in self.scales}
+        for index, (seq, _) in enumerate(self.windows):
+            groups[self.sequences[seq].meta.scale].append(index)
+        return {scale: members for scale, members in groups.items() if members}
 
     def __len__(self) -> int:
         return len(self.windows)
@@ -260,9 +315,9 @@ class WindowDataset(Dataset):
     def crop_for(self, index: int) -> Crop:
         """The LR crop of window ``index`` this epoch (the HR crop is ``hr_crop(crop, meta)``)."""
         seq = self.sequences[self.windows[index][0]]
-        if self.crop_size is None:
+        if self.crop_sizes[seq.meta.scale] is None:
             return seq.full_frame()
-        cw, ch = self.crop_size
+        cw, ch = self.crop_sizes[seq.meta.scale]
         w, h = seq.meta.lr_size
         rng = np.random.default_rng([self.seed, self.epoch, index])
         qx, qy = scales.crop_step(seq.meta.lr_size, seq.meta.hr_size)
@@ -279,10 +334,18 @@ class WindowDataset(Dataset):
 
             rng = np.random.default_rng([self.seed, self.epoch, index, 1])  # 1: not the crop's stream
             arrays = augment_window(arrays, self.sequences[seq].meta, self.augment, rng)
+        if self.with_scale:
+            arrays["scale"] = np.full(self.window, float(self.sequences[seq].meta.scale), dtype=np.float32)
         return {k: torch.from_numpy(v) for k, v in arrays.items()}
 
     def fingerprint(self) -> str:
         return dataset_fingerprint([s.seq_dir for s in self.sequences])
+
+
+def _exact_size_hint(hr_size, exact) -> str:
+    """The nearest display size whose ratio is exactly ``exact`` (a reduced ``Ratio``), as text."""
+    hr = [max(exact.num, round(v / exact.num) * exact.num) for v in hr_size]
+    return f"{hr[0]}x{hr[1]} -> {hr[0] * exact.den // exact.num}x{hr[1] * exact.den // exact.num}"
 
 
 class SequenceFrames:

@@ -92,9 +92,9 @@ def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: 
     weights, initial = initial_weights(experiment.model, init) if init else (None, None)  # before any data work
     if world.is_main:
         ensure_data(cfg, experiment.data, progress)
-    windows, val_windows = _open_data(cfg, world, progress, family_of(experiment.model))
-    if windows.scale != experiment.model.scale:
-        raise UserError(f"training data is x{windows.scale} but the model is x{experiment.model.scale}")
+    frame_scale = takes_frame_scale(experiment.model)
+    check_scales(experiment.model, data_scales(cfg.train_dirs()), frame_scale)  # before the cache is built
+    windows, val_windows = _open_data(cfg, world, progress, family_of(experiment.model), frame_scale)
 
     torch.manual_seed(cfg.seed)  # identical initial weights on every rank
     model = build_model(experiment.model)
@@ -254,17 +254,52 @@ def _set_lr(optimizer, cfg: TrainConfig, step: int) -> None:
         group["lr"] = lr
 
 
-def _open_data(cfg: TrainConfig, world, progress: bool, family):
+def _open_data(cfg: TrainConfig, world, progress: bool, family, frame_scale: bool = False):
     """Training windows (rank 0 builds the decoded cache, the others then open it) and rank 0's validation windows."""
     if world.is_main:
-        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, progress, family, augment=True)
+        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, progress, family, augment=True, frame_scale=frame_scale)
     distributed.barrier(world)
     if not world.is_main:
-        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, False, family, augment=True)
+        windows = open_windows(cfg, cfg.train_dirs(), cfg.crop, False, family, augment=True, frame_scale=frame_scale)
     val = None
     if world.is_main and cfg.val_dirs():
-        val = open_windows(cfg, cfg.val_dirs(), cfg.val_crop, progress, family)
+        val = open_windows(cfg, cfg.val_dirs(), cfg.val_crop, progress, family, frame_scale=frame_scale)
     return windows, val
+
+
+def takes_frame_scale(model_config) -> bool:
+    """Whether the family's models read the frame key ``scale`` (docs/architecture.md): a model
+    with ``takes_frame_scale = True``.  Asked of a model built for the purpose, with torch's
+    random state put back, so the run's initial weights are those it always had."""
+    with torch.random.fork_rng(devices=[]):
+        return bool(getattr(build_model(model_config), "takes_frame_scale", False))
+
+
+def data_scales(dirs: list[Path]) -> list:
+    """The scales of the sequences under ``dirs`` (from meta.json: cheap, no cache), ascending."""
+    from ..dataset.format import find_sequences, read_meta
+
+    return sorted({read_meta(seq).scale for d in dirs for seq in find_sequences(d)})
+
+
+def check_scales(model_config, scales: list, frame_scale: bool) -> None:
+    """A one-line UserError unless the model can train on data of ``scales``: a model that reads
+    the frame key ``scale`` takes any mix (its forward refuses a scale it cannot run); any other
+    takes its own scale only."""
+    from ..model.family import check_data_scale
+    from ..ops.scale import scale_label
+
+    if frame_scale or not scales:
+        return
+    family, model_scale = model_config.family, model_config.scale
+    if len(scales) > 1:
+        raise UserError(f"training data mixes scales {', '.join(scale_label(s) for s in scales)}, but the {family} family "
+                        f"trains at one scale (x{model_scale}; its models read no frame 'scale', docs/architecture.md): "
+                        "train one scale at a time")
+    if not float(scales[0]).is_integer():
+        check_data_scale(family, model_scale, scales[0], "training data")
+    if scales[0] != model_scale:
+        raise UserError(f"training data is x{scales[0]} but the model is x{model_scale}")
 
 
 def _check_out_dir(out_dir: Path, resume: bool) -> None:
@@ -295,6 +330,7 @@ def _record(experiment: ExperimentConfig, windows) -> dict:
         log.warning("training sequences use several jitter patterns: %s", ", ".join(patterns))
     return {
         "jitter_pattern": patterns[0] if len(patterns) == 1 else ",".join(patterns),
+        "train_scales": list(windows.scales),  # the scales of the training data (several: one per batch)
         "data_fingerprint": windows.fingerprint(),
         "train": to_dict(experiment.train),
         "data": to_dict(experiment.data) if experiment.data else None,

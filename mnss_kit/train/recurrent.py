@@ -44,21 +44,45 @@ def detach_state(state):
     return state.detach() if isinstance(state, torch.Tensor) else state
 
 
-def crop_validity(valid: torch.Tensor | None, frame: dict[str, torch.Tensor], scale: int) -> torch.Tensor:
+def batch_scale(batch: dict[str, torch.Tensor], model: nn.Module):
+    """The scale of a batch (or frame): its ``scale`` key (one value for the whole batch; an int
+    when integral), else the model's own."""
+    value = batch.get("scale")
+    if value is None:
+        return model.scale
+    first = float(value.reshape(-1)[0])
+    if not bool((value == first).all()):
+        raise ValueError(f"a batch holds several scales {sorted(set(value.reshape(-1).tolist()))}; one scale per batch")
+    return int(first) if first.is_integer() else first
+
+
+def crop_validity(valid: torch.Tensor | None, frame: dict[str, torch.Tensor], scale, hr_size: tuple[int, int] | None = None) -> torch.Tensor:
     """Update the (N, 1, H, W) bool mask of HR pixels whose history never left the crop.
 
     ``valid`` is the previous frame's mask (None before the first frame).  A
     pixel stays valid when every texel its bilinear warp reads is valid and not
     on the crop's outermost ring (where clamped off-crop reads land); a reset
-    frame makes every pixel valid, since it ignores its history.
+    frame makes every pixel valid, since it ignores its history.  ``hr_size``
+    ``(H, W)`` (the reference's) is needed at a fractional scale.
     """
     color = frame["color"]
     n, _, h, w = color.shape
+    integral = float(scale).is_integer()
+    if hr_size is None:
+        if not integral:
+            raise ValueError(f"crop_validity at the fractional scale {scale} needs hr_size")
+        hr_size = (h * int(scale), w * int(scale))
     if valid is None:
-        valid = torch.ones(n, 1, h * scale, w * scale, dtype=torch.bool, device=color.device)
+        valid = torch.ones(n, 1, *hr_size, dtype=torch.bool, device=color.device)
     else:
         inner = F.pad(valid[:, :, 1:-1, 1:-1], (1, 1, 1, 1)).to(color.dtype)
-        valid = warp_bilinear(inner, upsample_motion(frame["motion"], scale)) > 0.999
+        if integral:
+            motion = upsample_motion(frame["motion"], int(scale))
+        else:  # bilinear to the HR size, in HR pixels by each axis's exact ratio
+            motion = F.interpolate(frame["motion"], size=tuple(hr_size), mode="bilinear", align_corners=False)
+            motion = motion * torch.tensor([hr_size[1] / w, hr_size[0] / h], dtype=motion.dtype,
+                                           device=motion.device).view(1, 2, 1, 1)
+        valid = warp_bilinear(inner, motion) > 0.999
     reset = frame.get("reset")
     if reset is not None:
         valid = valid | (reset > 0.5).view(n, 1, 1, 1)
@@ -83,14 +107,15 @@ class WindowChunk(nn.Module):
                 gt_history: bool, loss_frames: int, mask_crop: bool = True):
         total = batch["reference"].new_zeros(())
         terms = batch["reference"].new_zeros(len(self.loss.terms))
-        scale = self.model.scale
+        scale = batch_scale(batch, self.model)  # the batch's scale (frame key ``scale``), else the model's
+        hr_size = tuple(batch["reference"].shape[-2:])
         prev_error = None  # the flicker term pairs consecutive frames of this chunk
         for t in range(t0, t1):
             frame, state = _next_input(self.model, batch, t, state, gt_history)
             output, aux, state = self.model(frame, state)
             reference = batch["reference"][:, t]
             if mask_crop:
-                valid = crop_validity(valid, frame, scale)
+                valid = crop_validity(valid, frame, scale, hr_size)
                 output = torch.where(valid, output, reference)
             error = output - reference
             flicker = None
@@ -117,7 +142,7 @@ def burn_in(model: nn.Module, batch: dict[str, torch.Tensor], frames: int, gt_hi
         frame, state = _next_input(model, batch, t, state, gt_history)
         _, _, state = model(frame, state)
         if mask_crop:
-            valid = crop_validity(valid, frame, model.scale)
+            valid = crop_validity(valid, frame, batch_scale(batch, model), tuple(batch["reference"].shape[-2:]))
     return state, valid
 
 
