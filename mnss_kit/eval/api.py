@@ -53,7 +53,10 @@ def load_model(name_or_path: str, data_dir: str):
     model, record = load(name_or_path)
     scale = int(record.get("scale") or model.scale)
     meta = fmt.read_meta(fmt.find_sequences(data_dir)[0])
-    check_data_scale(record.get("family"), scale, meta.scale, str(data_dir))
+    if getattr(model, "takes_frame_scale", False):  # runs at the data's scale (frame key 'scale'; docs/architecture.md)
+        scale = meta.scale
+    else:
+        check_data_scale(record.get("family"), scale, meta.scale, str(data_dir))
     pattern = record.get("jitter_pattern")
     trained = trained_patterns(record)
     if trained and meta.jitter_pattern not in trained:

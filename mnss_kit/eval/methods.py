@@ -32,9 +32,22 @@ def model_method(model: torch.nn.Module) -> Method:
 
 def _with_output_size(run, model):
     """``run`` with the model's ``set_output_size`` (a fractional-scale family's: the eval loop gives it
-    the sequence's HR size, as the baselines get it)."""
+    the sequence's HR size, as the baselines get it), and for a model that reads the frame key
+    ``scale`` (``takes_frame_scale``, docs/architecture.md) a ``set_scale`` whose value every frame
+    then carries as ``scale`` (N,)."""
     if hasattr(model, "set_output_size"):
         run.set_output_size = model.set_output_size
+    if getattr(model, "takes_frame_scale", False):
+        inner, chosen = run, {}
+
+        def run(frame: dict, state):
+            if "scale" in chosen and "scale" not in frame:
+                frame = dict(frame, scale=torch.full((frame["color"].shape[0],), chosen["scale"], dtype=torch.float32))
+            return inner(frame, state)
+
+        run.set_scale = lambda scale: chosen.update(scale=float(scale))
+        if hasattr(inner, "set_output_size"):
+            run.set_output_size = inner.set_output_size
     return run
 
 

@@ -140,6 +140,8 @@ def _run_sequence(
     for method in methods.values():  # a fractional scale's output size is the sequence's, not lr * s
         if hasattr(method, "set_output_size"):
             method.set_output_size(meta.hr_size)
+        if hasattr(method, "set_scale"):  # a model that reads the frame key 'scale' runs at the data's
+            method.set_scale(meta.scale)
     tracks = {name: _MethodTrack() for name in methods}
     n = frame_count(meta, opts.max_frames)
     cuts = [t for t in range(1, n) if meta.frames[t].reset]

@@ -189,7 +189,7 @@ class Scaled(nn.Module):
     def forward(self, frame, state=None):
         scale = frame.get("scale", self.scale)
         s = float(scale[0]) if torch.is_tensor(scale) else float(scale)
-        if "scale" in frame:  # the training loop's frames (not the MAC count's example frame)
+        if "scale" in frame and SEEN_SCALES:  # the training loop's frames (not the MAC count's example frame)
             SEEN_SCALES[-1].append(s)
         h, w = frame["color"].shape[-2:]
         up = F.interpolate(frame["color"], size=(round(h * s), round(w * s)), mode="bilinear", align_corners=False)
