@@ -16,7 +16,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--models", nargs="+", metavar="MODEL",
                         help="checkpoints or shipped names (default: every shipped checkpoint and runs/*/model.pt)")
     parser.add_argument("--data", type=Path, help="held-out data set (default: render test_x2, or tiny_test with --quick)")
-    parser.add_argument("--scale", type=int, help="bench only this upscaling factor: its models on a held-out set at it "
+    parser.add_argument("--scale", metavar="S", help="bench only this upscaling factor (2, 3, 4 or a quality mode such as "
+                        "1.5, in [1.25, 4]): its models on a held-out set at it "
                         "(default: the --data set's, or every scale that has a model; built-in sets: test_x2, test_x4, "
                         "tiny_test at any)")
     parser.add_argument("--devices", nargs="+", metavar="NAME", help="device profiles (default: every shipped one)")
@@ -26,6 +27,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..fileio import check_output
+    from ..ops.scale import parse_scale
+
+    if args.scale is not None:
+        args.scale = parse_scale(args.scale, "--scale")  # 0.5, 1.0, nan, 9: one line
 
     charts = args.charts or args.out.parent / "charts"
     for path, kind in ((args.out, "file"), (charts, "into"), (args.work, "into")):

@@ -79,10 +79,11 @@ def default_models(runs: Path = Path("runs")) -> list[str]:
     return [*shipped_names(), *(sorted(str(p) for p in runs.glob("*/model.pt")) if runs.is_dir() else [])]
 
 
-def model_scale(name: str) -> int:
+def model_scale(name: str) -> int | float:
     from ..model.checkpoint import read_record
+    from ..ops.scale import parse_scale
 
-    return int(read_record(name)[0]["scale"])
+    return parse_scale(read_record(name)[0]["scale"])  # 2 stays 2; a quality mode such as 1.5 stays 1.5
 
 
 def models_by_scale(request: BenchRequest) -> dict[int, list[str]]:

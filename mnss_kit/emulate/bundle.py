@@ -30,8 +30,15 @@ class BundleSpec:
     weights: dict[str, Conv3x3]
 
     @property
-    def scale(self) -> int:
-        return int(self.manifest["scale"])
+    def scale(self) -> int | float:
+        """2, 3, 4, or a quality mode such as 1.5 (a fractional bundle's sizes are ``lr_size``, ``hr_size``)."""
+        value = self.manifest["scale"]
+        return int(value) if float(value).is_integer() else float(value)
+
+    @property
+    def hr_size(self) -> tuple[int, int]:
+        w, h = self.manifest["hr_size"]
+        return int(w), int(h)
 
     @property
     def lr_size(self) -> tuple[int, int]:

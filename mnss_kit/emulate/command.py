@@ -27,6 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="numpy: reference passes; mesa: the bundle's shader files through EGL")
     parser.add_argument("--dump", action="store_true", help="write every named tensor of every frame (OUT/<sequence>/dump)")
     parser.add_argument("--frames", type=int, default=None, metavar="N", help="first N frames of each sequence")
+    parser.add_argument("--scale", metavar="S", help="the upscaling factor the bundle must run at (2, 3, 4 or a quality "
+                        "mode such as 1.5 or 1.7, in [1.25, 4]): refused in one line when the bundle is at another")
     parser.add_argument("--overwrite", action="store_true", help="replace a non-empty --out directory")
     parser.add_argument("--compare", nargs=2, type=Path, metavar=("DUMP_A", "DUMP_B"),
                         help="compare two tensor dumps tensor by tensor instead of running a bundle (exit 1 if they differ)")
@@ -52,6 +54,10 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"missing {', '.join(missing)} (usage: mnss-kit emulate BUNDLE --data DIR --out DIR)")
     if args.frames is not None and args.frames < 1:
         raise UserError(f"--frames must be at least 1, got {args.frames}")
+    if args.scale is not None:
+        from ..ops.scale import parse_scale
+
+        args.scale = parse_scale(args.scale, "--scale")  # before the bundle is opened: a bad value is one line
     return _emulate(args)
 
 
@@ -63,6 +69,8 @@ def _emulate(args: argparse.Namespace) -> int:
 
     profile = args.npu_profile or (runtime_names("onnxruntime")[0] if args.npu_backend == "onnxruntime" else DEFAULT_RUNTIME)
     emulator = Emulator(args.bundle, profile, args.npu_backend, args.gpu_backend)
+    if args.scale is not None and float(emulator.spec.scale) != float(args.scale):
+        raise UserError(f"{args.bundle}: the bundle is x{emulator.spec.scale:g}, not --scale {args.scale:g}")
     check_golden_sequences(emulator, args.data, args.frames)
     report = run_dataset(emulator, args.data, out_dir=args.out, dump=args.dump, frames=args.frames,
                          overwrite=args.overwrite, progress=not args.no_progress)

@@ -62,7 +62,13 @@ def check_sizes(manifest: dict) -> list[str]:
     scale, lr, hr = manifest["scale"], manifest["lr_size"], manifest["hr_size"]
     config_scale = (manifest["model"].get("config") or {}).get("scale")
     disagree = []
-    if [scale * v for v in lr] != hr:
+    if not float(scale).is_integer():  # a quality mode: lr_size = round_half_up(hr_size / s) per axis
+        from ..ops.scale import size_mismatch
+
+        why = size_mismatch(lr, hr, scale)
+        if why:
+            disagree.append(why)
+    elif [scale * v for v in lr] != hr:
         disagree.append(f"hr_size {hr} is not scale {scale} x lr_size {lr} ({[scale * v for v in lr]})")
     if config_scale is not None and config_scale != scale:
         disagree.append(f"scale {scale} differs from model.config.scale {config_scale}")
@@ -121,18 +127,22 @@ def _npu_size_problems(manifest: dict) -> list[str]:
 def _schedule_size_problems(manifest: dict) -> list[str]:
     """``u_scale`` is the bundle's scale; LR and HR grids cover their size with whole workgroups."""
     scale, lr = manifest["scale"], tuple(manifest["lr_size"])
+    fractional = not float(scale).is_integer()
+    u_scale = 0 if fractional else scale  # a fractional bundle's passes get 0: their textures' sizes give the ratio
+    hr = tuple(manifest["hr_size"]) if fractional else None
     passes = {p["name"]: p for p in manifest["gpu"]["passes"]}
     problems = []
     for i, step in enumerate(manifest["schedule"]["steps"]):
         if step["kind"] != "gpu" or step["pass"] not in passes:
             continue  # check_schedule names an unknown pass
         where = f"manifest.json: schedule step {i} ({step['pass']})"
-        value = step["uniforms"].get("u_scale", {}).get("value", scale)
-        if value != scale:
-            problems.append(f"{where}: u_scale {value}, the bundle's scale is {scale}")
+        value = step["uniforms"].get("u_scale", {}).get("value", u_scale)
+        if value != u_scale:
+            problems.append(f"{where}: u_scale {value}, the bundle's scale is {scale}"
+                            + (" (a fractional scale's passes take u_scale 0)" if fractional else ""))
         spec = passes[step["pass"]]
         if spec["grid"] in ("hr", "lr", "lr_layers"):
-            expected = groups(spec["grid"], tuple(spec["workgroup_size"]), lr, scale)[:2]
+            expected = groups(spec["grid"], tuple(spec["workgroup_size"]), lr, 1 if fractional else scale, hr_size=hr)[:2]
             if step["groups"][:2] != expected:
                 problems.append(f"{where}: workgroups {step['groups'][0]}x{step['groups'][1]} do not cover its "
                                 f"{spec['grid'].split('_')[0]} grid ({expected[0]}x{expected[1]} needed)")

@@ -25,6 +25,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "must match the one report.json records; default: the path recorded there)")
     parser.add_argument("--resolution", metavar="WxH",
                         help=f"output (HR) size the bundle runs at (default {DEFAULT_RESOLUTION_TEXT}; a quantize directory fixes it)")
+    parser.add_argument("--scale", metavar="S",
+                        help="the bundle's upscaling factor (2, 3, 4 or a quality mode such as 1.5 or 1.7, in [1.25, 4]; "
+                             "default: the model's): the LR size is round_half_up(WxH / S) per axis (1280x720 at 1.5: 853x480); "
+                             "a family of integer scales takes only its own")
     parser.add_argument("--device", metavar="NAME", help="device profile (mnss_kit/configs/devices): records the GPU/NPU placement and estimates")
     parser.add_argument("--placement", choices=placement_modes(), default="default", help="placement mode for --device (default: the model's split)")
     parser.add_argument("--data", metavar="DIR",
@@ -49,12 +53,16 @@ def run(args: argparse.Namespace) -> int:
     from ..fileio import check_output
     from .pipeline import ExportRequest, export
 
+    from ..ops.scale import parse_scale
+
     check_output(args.out, "directory")
+    scale = parse_scale(args.scale, "--scale") if args.scale is not None else None  # one line for 0.5, 1.0, nan, 9
     request = ExportRequest(
         model=args.model,
         out=Path(args.out),
         checkpoint=args.checkpoint,
         resolution=args.resolution,
+        scale=scale,
         device=args.device,
         placement=args.placement,
         data=Path(args.data) if args.data else None,
@@ -70,7 +78,8 @@ def run(args: argparse.Namespace) -> int:
     files = manifest["files"]
     total = sum(f["bytes"] for f in files.values())
     w, h = manifest["hr_size"]
-    print(f"wrote {request.out}: {manifest['model']['id']} x{manifest['scale']} at {w}x{h}, "
+    lw, lh = manifest["lr_size"]
+    print(f"wrote {request.out}: {manifest['model']['id']} x{manifest['scale']} at {w}x{h} (LR {lw}x{lh}), "
           f"{len(manifest['schedule']['steps'])} steps, {len(manifest['golden']['frames'])} golden frames, "
           f"{_sequence_note(manifest)}{len(files)} files ({total / 1e6:.1f} MB), format version {manifest['format_version']}")
     return 0

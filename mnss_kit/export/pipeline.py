@@ -29,6 +29,7 @@ class ExportRequest:
     out: Path
     checkpoint: str | None = None
     resolution: str | None = None  # "WxH" output size
+    scale: int | float | None = None  # --scale: the bundle's scale (a fractional-scale family may run at another than its config's)
     device: str | None = None
     placement: str = "default"
     data: Path | None = None
@@ -61,8 +62,12 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
     model, record = checkpoint.load(ckpt)
     if npu is not None:
         _check_same_model(report, ckpt, request.model)
+    _apply_scale(model, request.scale, Path(ckpt).stem)
     hr_size = _bundle_size(request, npu, model.scale, family_of(model).npu_output_at_lr)
-    lr_size = (hr_size[0] // model.scale, hr_size[1] // model.scale)
+    lr_size = bundle_lr_size(hr_size, model.scale)
+    fractional = not float(model.scale).is_integer()
+    if fractional:
+        model.set_output_size(hr_size)  # the model's own frames (calibration) come out at the bundle's HR size
     if request.data is not None:  # before the slow part
         check_data(request.data, model.scale, Path(ckpt).stem, lr_size, request.golden_frames)
     placement = _placement(model, request, hr_size, Path(ckpt).stem)
@@ -76,7 +81,8 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
     npu_io = {"model": TFLITE_NAME, "input": tflite.inputs[0], "output": tflite.outputs[0],
               "input_q": tflite.tensors[tflite.inputs[0]].plain_qparams(), "output_q": tflite.tensors[tflite.outputs[0]].plain_qparams()}
     state = {k: v.detach().cpu().numpy() for k, v in model.state_dict().items()}
-    plan = family_of(model).gpu_plan(model.config, state, lr_size, npu_io, request.profile)
+    extra = {"hr_size": hr_size} if fractional else {}  # integer scales: every family's plan as before
+    plan = family_of(model).gpu_plan(model.config, state, lr_size, npu_io, request.profile, **extra)
     _check_boundary_sizes(tflite, plan)
     pattern = checkpoint.bundle_pattern(record)
     inputs = [r["name"] for r in plan["resources"] if r["role"] == "input"]
@@ -102,6 +108,7 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
         golden_source=golden_source,
         placement=placement,
         sequence=sequence,
+        hr_size=hr_size if fractional else None,
     )
     manifest = write_bundle(request.out, parts, overwrite=request.overwrite)
     clock.lap("write")
@@ -145,6 +152,34 @@ class _Clock:
         self.last = now
 
 
+def _apply_scale(model, scale, name: str) -> None:
+    """``--scale``: the model's own scale, or any scale for a family that takes fractional ones (its
+    net runs at LR; the bundle runs it at that scale); a one-line UserError otherwise."""
+    from ..ops.scale import INTEGER_SCALE_ONLY
+    from ..model.families import family_of
+
+    if scale is None or float(scale) == float(model.scale):
+        return
+    family = family_of(model).name
+    if family in INTEGER_SCALE_ONLY or not hasattr(model, "set_output_size"):
+        raise UserError(f"--scale {scale}: {name} is x{model.scale} and the {family} family runs at the scale it was built for "
+                        f"only (leave out --scale)")
+    if not getattr(model.config, "scale_input", True):
+        log.warning("%s was trained at x%s and has no scale input; the bundle runs it at x%s", name, model.config.scale, scale)
+    model.config.scale = scale
+    model.scale = scale
+
+
+def bundle_lr_size(hr_size, scale) -> tuple[int, int]:
+    """The LR size of an HR size: ``hr / s`` at an integer scale, ``round_half_up(hr / s)`` per axis
+    at a fractional one (``ops.scale.lr_size_for``: 1280x720 at 1.5 is 853x480, at 1.7 753x424)."""
+    from ..ops.scale import lr_size_for
+
+    if float(scale).is_integer():
+        return hr_size[0] // int(scale), hr_size[1] // int(scale)
+    return tuple(lr_size_for(hr_size, scale))
+
+
 def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int, output_at_lr: bool = False) -> tuple[int, int]:
     """The HR size: the quantize directory's (its NPU output is the HR image, or with ``output_at_lr``
     the LR one), else ``--resolution`` or the default."""
@@ -154,7 +189,11 @@ def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int, o
     if npu is not None:
         tflite = read_tflite(npu.tflite)
         _, h, w, _ = tflite.tensors[tflite.outputs[0]].shape  # the NPU's output is the HR image (its input may be LR)
-        if output_at_lr:
+        if output_at_lr:  # the even LR size: at a fractional scale --resolution names the HR size
+            if not float(scale).is_integer():
+                if not request.resolution:
+                    raise UserError(f"a x{scale:g} quantize directory needs --resolution WxH (the output size it runs at)")
+                return parse_resolution(request.resolution)
             w, h = w * scale, h * scale
         if request.resolution and parse_resolution(request.resolution) != (w, h):
             raise UserError(f"the quantize directory's npu.tflite runs at {w}x{h}, not {request.resolution}; "
@@ -162,7 +201,8 @@ def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int, o
         size = (w, h)
     else:
         size = parse_resolution(request.resolution) if request.resolution else DEFAULT_RESOLUTION
-    require_scale_multiple(size, scale)
+    if float(scale).is_integer():
+        require_scale_multiple(size, int(scale))
     return size
 
 

@@ -38,7 +38,7 @@ class BundleParts:
 
     model: dict
     plan: dict  # the family's GPU plan (``Family.gpu_plan``): passes, weight blocks, resources, schedule, optional debug views
-    scale: int
+    scale: int | float  # 2, 3, 4 or a quality mode such as 1.5 (then ``hr_size`` is given)
     lr_size: tuple[int, int]
     jitter_pattern: str
     stages: list[tuple[str, str]]
@@ -48,6 +48,7 @@ class BundleParts:
     golden_source: str
     placement: dict | None = None
     sequence: tuple[list[dict], str] | None = None  # recorded input frames to carry, and where they came from
+    hr_size: tuple[int, int] | None = None  # (W, H) at a fractional scale (round(lr * s) is not always it); else lr * s
 
 
 def write_bundle(out: str | Path, parts: BundleParts, overwrite: bool = False) -> dict:
@@ -113,7 +114,7 @@ def build_manifest(parts: BundleParts, passes: list[dict], blocks: list[dict], t
         "model": parts.model,
         "scale": s,
         "lr_size": [w, h],
-        "hr_size": [w * s, h * s],
+        "hr_size": list(parts.hr_size) if parts.hr_size is not None else [w * s, h * s],
         "conventions": conventions_section(),
         "jitter": {
             "pattern": parts.jitter_pattern,

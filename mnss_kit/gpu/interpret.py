@@ -134,6 +134,10 @@ def _taau_filter(p, c: Call):
     return {"display": display}
 
 
+def _taau_lr_reproject(p, c: Call):
+    return {"reprojected": p.taau_lr_reproject(c.read["history"], c.read["motion"], bool(c.u("u_reset")), c.u("u_blur_penalty"))}
+
+
 def _taau_lr_evidence(p, c: Call):
     return {"evidence": p.taau_lr_evidence(c.read["depth"], c.read["prev_depth"], c.read["motion"], bool(c.u("u_reset")),
                                            c.u("u_trust_depth"), c.u("u_trust_spread_px"))}
@@ -153,7 +157,7 @@ def _taau_lr_accumulate(p, c: Call):
 
 def _taau_lr_filter(p, c: Call):
     return {"display": p.taau_lr_filter(c.read["npu_output"], c.read["history"], c.u("u_scale"), c.u("u_q_scale"),
-                                        c.u("u_q_zero_point"), c.u("u_filter_bound"))}
+                                        c.u("u_q_zero_point"), c.u("u_filter_bound"), c.u("u_lr_size"))}
 
 
 def _fsr2_reconstruct(p, c: Call):
@@ -195,6 +199,7 @@ PASS_CALLS: dict[str, Callable[[object, Call], dict]] = {
     "taau_pack_pass": _taau_pack,
     "taau_accumulate_pass": _taau_accumulate,
     "taau_filter_pass": _taau_filter,
+    "taau_lr_reproject_pass": _taau_lr_reproject,
     "taau_lr_evidence_pass": _taau_lr_evidence,
     "taau_lr_pack_pass": _taau_lr_pack,
     "taau_lr_accumulate_pass": _taau_lr_accumulate,

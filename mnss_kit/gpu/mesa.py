@@ -408,6 +408,14 @@ class MesaPasses:
         return self.read(out, "rgba32f", 4)
 
     @_in_own_context
+    def taau_lr_reproject(self, history, motion, reset: bool, blur_penalty: float):
+        hh, hw = history.shape[:2]
+        out = self.empty((hw, hh), "rgba16f")
+        res = {"history": self.texture(history, "rgba16f"), "motion": self.texture(motion, "rg32f"), "reprojected": out}
+        self.run("taau_lr_reproject_pass", (hw, hh), res, {"u_reset": int(bool(reset)), "u_blur_penalty": float(blur_penalty)})
+        return self.read(out, "rgba16f", 4)
+
+    @_in_own_context
     def taau_lr_pack(self, color, reprojected, evidence, scale: int, reset: bool, max_weight: float, q_scale: float,
                      q_zero_point: int, profile: str):
         h, w = color.shape[:2]
@@ -425,24 +433,26 @@ class MesaPasses:
     @_in_own_context
     def taau_lr_accumulate(self, npu_output, color, reprojected, evidence, jitter, scale: int, q_scale: float, q_zero_point: int,
                            box_bound: float, sample_sigma: float, prior_weight: float, max_weight: float):
-        h, w = color.shape[:2]
-        history, display = self.empty((w * scale, h * scale), "rgba16f"), self.empty((w * scale, h * scale), "rgba8")
+        hh, hw = np.asarray(reprojected).shape[:2]  # the HR size at any scale (u_scale 0: a fractional one)
+        history, display = self.empty((hw, hh), "rgba16f"), self.empty((hw, hh), "rgba8")
         res = {"npu_output": self.ctx.buffer(_packed_int8(npu_output)), "color": self.texture(color, "rgba16f"),
                "reprojected": self.texture(reprojected, "rgba16f"), "evidence": self.texture(evidence, "rgba32f"),
                "history": history, "display": display}
         uni = {"u_scale": scale, "u_jitter": _vec2(jitter), "u_q_scale": float(np.float32(q_scale)),
                "u_q_zero_point": int(q_zero_point), "u_box_bound": float(box_bound), "u_sample_sigma": float(sample_sigma),
                "u_prior_weight": float(prior_weight), "u_max_weight": float(max_weight)}
-        self.run("taau_lr_accumulate_pass", (w * scale, h * scale), res, uni)
+        self.run("taau_lr_accumulate_pass", (hw, hh), res, uni)
         return self.read(history, "rgba16f", 4), self.read(display, "rgba8", 3)
 
     @_in_own_context
-    def taau_lr_filter(self, npu_output, history, scale: int, q_scale: float, q_zero_point: int, filter_bound: float):
+    def taau_lr_filter(self, npu_output, history, scale: int, q_scale: float, q_zero_point: int, filter_bound: float,
+                       lr_size=None):
         hh, hw = history.shape[:2]
         display = self.empty((hw, hh), "rgba8")
         res = {"npu_output": self.ctx.buffer(_packed_int8(npu_output)), "history": self.texture(history, "rgba16f"),
                "display": display}
-        uni = {"u_scale": scale, "u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point),
+        lr = tuple(int(v) for v in lr_size) if lr_size is not None else (hw // scale, hh // scale)
+        uni = {"u_scale": scale, "u_lr_size": lr, "u_q_scale": float(np.float32(q_scale)), "u_q_zero_point": int(q_zero_point),
                "u_filter_bound": float(filter_bound)}
         self.run("taau_lr_filter_pass", (hw, hh), res, uni)
         return self.read(display, "rgba8", 3)

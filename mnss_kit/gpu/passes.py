@@ -172,6 +172,12 @@ PASSES = {
             exact=False,
         ),
         # ntaau_lr: the evidence at LR, the LR features packed, the accumulation steered from LR (exp, tanh: float paths)
+        Pass(  # ntaau_lr at a fractional scale: taau_reproject_pass with the motion resized by the sizes' ratio
+            "taau_lr_reproject_pass", (8, 8, 1), "hr",
+            (_s("history", 0, HISTORY_FORMAT), _s("motion", 1, "rg32f"), _i("reprojected", 0, "rgba16f")),
+            ("u_reset", "u_blur_penalty"),
+            exact=False,
+        ),
         Pass(
             "taau_lr_evidence_pass", (8, 8, 1), "lr",
             (_s("depth", 0, "r32f"), _s("prev_depth", 1, "r32f"), _s("motion", 2, "rg32f"), _i("evidence", 0, "rgba32f")),
@@ -197,7 +203,7 @@ PASSES = {
         Pass(
             "taau_lr_filter_pass", (8, 8, 1), "hr",
             (_b("npu_output", 0, "uint[]"), _s("history", 0, HISTORY_FORMAT), _i("display", 0, DISPLAY_FORMAT)),
-            ("u_scale", "u_q_scale", "u_q_zero_point", "u_filter_bound"),
+            ("u_scale", "u_lr_size", "u_q_scale", "u_q_zero_point", "u_filter_bound"),
             exact=False,
         ),
         # fsr2: the FSR2-class baseline upscaler (ops.fsr2), GPU only; float paths (sin, sqrt)

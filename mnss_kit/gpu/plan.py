@@ -96,21 +96,23 @@ def word_count(lr_size: tuple[int, int], scale: int, channels: int) -> int:
 
 
 def groups(grid: str, local: tuple[int, int, int], lr_size: tuple[int, int], scale: int, depth: int = 1,
-           words: int = 0) -> list[int]:
-    """Workgroup counts of a pass over ``grid`` (``words``: the word count for the ``words`` grid)."""
+           words: int = 0, hr_size: tuple[int, int] | None = None) -> list[int]:
+    """Workgroup counts of a pass over ``grid`` (``words``: the word count for the ``words`` grid);
+    the ``hr`` grid covers ``hr_size`` when given (a fractional scale), else ``lr_size`` times ``scale``."""
     w, h = lr_size
     if grid == "words":
         n = -(-words // local[0])
         gx = min(n, MAX_GROUPS_X)
         return [gx, -(-n // gx), 1]
     if grid == "hr":
-        w, h = w * scale, h * scale
+        w, h = (w * scale, h * scale) if hr_size is None else (int(hr_size[0]), int(hr_size[1]))
     return [-(-w // local[0]), -(-h // local[1]), depth]
 
 
 def step(name: str, label: str, stage_name: str, bind: dict, uniforms: dict, lr_size, scale, depth: int = 1,
-         skip_on_reset: bool = False, words: int = 0) -> dict:
-    """One GPU step of the schedule: pass ``name`` for model stage ``stage_name``."""
+         skip_on_reset: bool = False, words: int = 0, hr_size=None) -> dict:
+    """One GPU step of the schedule: pass ``name`` for model stage ``stage_name`` (``hr_size``: the HR
+    grid's size at a fractional scale)."""
     spec = P.PASSES[name]
     return {
         "kind": "gpu",
@@ -119,7 +121,7 @@ def step(name: str, label: str, stage_name: str, bind: dict, uniforms: dict, lr_
         "stage": stage_name,
         "bind": bind,
         "uniforms": uniforms,
-        "groups": groups(spec.grid, spec.local_size, lr_size, scale, depth, words),
+        "groups": groups(spec.grid, spec.local_size, lr_size, scale, depth, words, hr_size),
         "skip_on_reset": skip_on_reset,
     }
 

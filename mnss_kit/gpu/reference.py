@@ -192,6 +192,11 @@ class ReferencePasses:
         return encode_unorm8(taau.display(to_half(history)[..., :3], steer))
 
     # -- ntaau_lr ------------------------------------------------------------------------------
+    def taau_lr_reproject(self, history, motion, reset: bool, blur_penalty: float):
+        """taau_lr_reproject_pass: ``taau_reproject`` at any scale, the LR motion resized to the
+        history's size (``ops.taau.hr_motion_of``)."""
+        return self.taau_reproject(history, motion, 0, reset, blur_penalty)
+
     def taau_lr_evidence(self, depth, prev_depth, motion, reset: bool, trust_depth: float, trust_spread_px: float):
         """taau_lr_evidence_pass.  depth, prev_depth (h,w,1), motion (h,w,2) -> (h,w,4) float32: the
         depth change, the motion spread, the trust, 0 (``ops.taau_lr.evidence``); on a reset this
@@ -207,8 +212,8 @@ class ReferencePasses:
         quantized as ``ops.int8.quantize.quantize`` under ``profile``.  On a reset the history is zero (colour
         and weight), as the model's state after a cut; ``reprojected`` is not read."""
         e = np.asarray(evidence, np.float32)
-        h, w = e.shape[:2]
-        r = np.zeros((h * scale, w * scale, 4), np.float32) if reset else to_half(reprojected)
+        hr_shape = np.asarray(reprojected).shape[:2]  # the HR size at any scale (u_scale 0: a fractional one)
+        r = np.zeros((*hr_shape, 4), np.float32) if reset else to_half(reprojected)
         features = taau_lr.steering_features(sanitize_colour(to_half(color)), r[..., :3], r[..., 3:], e[..., 0:1], e[..., 1:2],
                                              scale, max_weight)
         return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]
@@ -219,19 +224,25 @@ class ReferencePasses:
         (H,W,4), evidence (h,w,4) -> (history (H,W,4) fp16 values: the blend and its weight, display (H,W,3)
         uint8 codes of the blend, without the display filter)."""
         h, w = np.asarray(color).shape[:2]
+        hr_size = (np.asarray(reprojected).shape[1], np.asarray(reprojected).shape[0])  # u_scale 0: the sizes give the ratio
         raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0, :h, :w]
-        steer = taau_lr.steer_from_lr(raw, np.asarray(evidence, np.float32)[..., 2:3], scale, box_bound, 0.0)
-        terms = taau.current_terms(sanitize_colour(to_half(color)), as_jitter(jitter), scale, sample_sigma)
+        steer = taau_lr.steer_from_lr(raw, np.asarray(evidence, np.float32)[..., 2:3], scale, box_bound, 0.0, hr_size)
+        terms = taau.current_terms(sanitize_colour(to_half(color)), as_jitter(jitter), scale, sample_sigma, hr_size)
         r = to_half(reprojected)
         _, history, weight = taau.blend(*terms, r[..., :3], r[..., 3:], prior_weight, max_weight, steer)
         return to_half(np.concatenate([history, weight], axis=-1)), encode_unorm8(history)
 
-    def taau_lr_filter(self, npu_output, history, scale: int, q_scale: float, q_zero_point: int, filter_bound: float):
+    def taau_lr_filter(self, npu_output, history, scale: int, q_scale: float, q_zero_point: int, filter_bound: float,
+                       lr_size=None):
         """taau_lr_filter_pass.  npu_output (1,h',w',6) int8 raw LR steering, history (H,W,4) this frame's
-        blend -> display (H,W,3) uint8 codes: the blend through the steered filter (``ops.taau_lr.filter_weights``)."""
-        h, w = history.shape[0] // scale, history.shape[1] // scale
+        blend -> display (H,W,3) uint8 codes: the blend through the steered filter (``ops.taau_lr.filter_weights``).
+        ``scale`` 0: a fractional scale, the LR size ``lr_size`` ``(w, h)`` (``u_lr_size``)."""
+        if scale:
+            h, w = history.shape[0] // scale, history.shape[1] // scale
+        else:
+            w, h = (int(v) for v in lr_size)
         raw = quant.dequantize(np.asarray(npu_output, np.int8), q_scale, q_zero_point)[0, :h, :w]
-        axis, diagonal = taau_lr.filter_weights(raw, scale, filter_bound)
+        axis, diagonal = taau_lr.filter_weights(raw, scale, filter_bound, (history.shape[1], history.shape[0]))
         return encode_unorm8(taau.display(to_half(history)[..., :3], taau.Steer(filter_axis=axis, filter_diagonal=diagonal)))
 
     # -- fsr2 ----------------------------------------------------------------------------------

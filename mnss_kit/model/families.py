@@ -73,7 +73,13 @@ def npu_input_shapes(model, hr_size: tuple[int, int]) -> list[tuple[int, ...]]:
 
     w, h = hr_size
     scale = model.config.scale
-    frame = example_frame(family_of(model), h // scale, w // scale, scale, generator=torch.Generator().manual_seed(0))
+    if float(scale).is_integer():
+        lw, lh = w // scale, h // scale
+    else:  # a quality mode: round_half_up(hr / s) per axis (ops.scale.lr_size_for)
+        from ..ops.scale import lr_size_for
+
+        lw, lh = lr_size_for((w, h), scale)
+    frame = example_frame(family_of(model), lh, lw, scale, generator=torch.Generator().manual_seed(0))
     seen = []
     hook = npu_module(model).register_forward_pre_hook(lambda module, args: seen.append([tuple(a.shape) for a in args]))
     try:

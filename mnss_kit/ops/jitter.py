@@ -110,6 +110,8 @@ def subpixel_index(offset: np.ndarray, scale: int) -> np.ndarray:
     so float32 and float64 offsets of the same pattern pick the same sub-pixel.
     """
     o = np.asarray(offset, dtype=np.float64)
+    if not float(scale).is_integer():  # a quality mode (1.5x): no s x s tile, no sub-pixel; (0, 0) for the records
+        return np.zeros(o.shape, np.int32)
     idx = np.floor((o + 0.5) * scale + SUBPIXEL_BORDER_TOLERANCE).astype(np.int32)
     return np.clip(idx, 0, scale - 1)
 

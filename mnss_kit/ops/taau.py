@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .scale import hr_size_for, is_integer, resize_bilinear
 from .warp import offscreen, upsample_motion, warp_bilinear
 
 CUBIC_A = -0.75  # the bicubic kernel's free parameter (PyTorch's and OpenCV's)
@@ -27,8 +28,48 @@ def ycocg_to_rgb(x: np.ndarray) -> np.ndarray:
     return np.asarray(x, np.float32) @ YCOCG_TO_RGB.T
 
 
-def nearest_up(x: np.ndarray, s: int) -> np.ndarray:
-    return np.repeat(np.repeat(x, s, axis=0), s, axis=1)
+def hr_dims(lr_hw, scale, hr_size=None) -> tuple[int, int]:
+    """``(H, W)`` for an LR image of ``(h, w)``: ``hr_size`` ``(W, H)`` when given, else ``lr * s`` at
+    an integer scale and ``ops.scale.hr_size_for`` at a fractional one (``model.taau.hr_dims``)."""
+    h, w = int(lr_hw[0]), int(lr_hw[1])
+    if hr_size is not None:
+        return int(hr_size[1]), int(hr_size[0])
+    if is_integer(scale):
+        return h * int(scale), w * int(scale)
+    width, height = hr_size_for((w, h), scale)
+    return height, width
+
+
+def is_tiled(lr_hw, hr_hw, scale) -> bool:
+    """An integer scale at exactly ``lr * s``: the integer code paths, bit for bit."""
+    return is_integer(scale) and tuple(hr_hw) == (int(lr_hw[0]) * int(scale), int(lr_hw[1]) * int(scale))
+
+
+def nearest_index(n_hr: int, n_lr: int) -> np.ndarray:
+    """The LR pixel of each HR pixel along one axis: ``floor((X + 0.5) lr / hr)``, exactly (``X // s``
+    at an integer scale)."""
+    return ((2 * np.arange(n_hr, dtype=np.int64) + 1) * n_lr) // (2 * n_hr)
+
+
+def nearest_up(x: np.ndarray, s, hr_size=None) -> np.ndarray:
+    """``(h, w, C)`` -> ``(H, W, C)``, each HR pixel its LR pixel (``nearest_index``)."""
+    hr_hw = hr_dims(x.shape[:2], s, hr_size)
+    if is_tiled(x.shape[:2], hr_hw, s):
+        s = int(s)
+        return np.repeat(np.repeat(x, s, axis=0), s, axis=1)
+    return x[nearest_index(hr_hw[0], x.shape[0])][:, nearest_index(hr_hw[1], x.shape[1])]
+
+
+def hr_motion_of(motion: np.ndarray, scale, hr_size=None) -> np.ndarray:
+    """LR motion (h, w, 2) in LR pixels -> HR motion in HR pixels (``ops.scale.upsample_motion_to``:
+    ``ops.warp.upsample_motion`` at an integer scale, else bilinear times each axis's exact ratio)."""
+    motion = np.asarray(motion, np.float32)
+    hr_hw = hr_dims(motion.shape[:2], scale, hr_size)
+    if is_tiled(motion.shape[:2], hr_hw, scale):
+        return upsample_motion(motion, int(scale))
+    h, w = motion.shape[:2]
+    ratio = np.array([hr_hw[1] / w, hr_hw[0] / h], dtype=np.float32)
+    return resize_bilinear(motion, (hr_hw[1], hr_hw[0])) * ratio  # upsample_motion_to's fractional branch
 
 
 def cubic_weights(t: np.ndarray) -> np.ndarray:
@@ -40,49 +81,58 @@ def cubic_weights(t: np.ndarray) -> np.ndarray:
     return np.where(d <= 1.0, near, far).astype(np.float32)
 
 
-def bicubic_upsample(color: np.ndarray, jitter, scale: int) -> np.ndarray:
-    """Jitter-aware bicubic ``(h, w, C)`` -> ``(h*s, w*s, C)``, not clamped: the LR texel ``(i, j)``
-    sits at ``(j + 0.5 + jx, i + 0.5 + jy)``; each tap's index is clamped to the edge."""
+def bicubic_upsample(color: np.ndarray, jitter, scale, hr_size=None) -> np.ndarray:
+    """Jitter-aware bicubic ``(h, w, C)`` -> ``(h*s, w*s, C)`` (``(H, W, C)`` at a fractional scale:
+    HR centre ``X + 0.5`` at LR ``(X + 0.5) w / W``), not clamped: the LR texel ``(i, j)`` sits at
+    ``(j + 0.5 + jx, i + 0.5 + jy)``; each tap's index is clamped to the edge."""
     h, w = color.shape[:2]
+    hh, ww = hr_dims((h, w), scale, hr_size)
+    tiled = is_tiled((h, w), (hh, ww), scale)
     jx, jy = (float(v) for v in np.asarray(jitter, np.float32).reshape(2))
 
-    def taps(n_lr: int, shift: float):
-        u = (np.arange(n_lr * scale, dtype=np.float64) + 0.5) / scale - shift - 0.5  # texel-index coordinate
+    def taps(n_lr: int, n_hr: int, shift: float):
+        if tiled:
+            u = (np.arange(n_hr, dtype=np.float64) + 0.5) / int(scale) - shift - 0.5  # texel-index coordinate
+        else:
+            u = (np.arange(n_hr, dtype=np.float64) + 0.5) * (n_lr / n_hr) - shift - 0.5
         base = np.floor(u)
         index = np.clip(base[:, None].astype(np.int64) + np.arange(-1, 3), 0, n_lr - 1)
         return index, cubic_weights(u - base)
 
-    rows, wy = taps(h, jy)
-    cols, wx = taps(w, jx)
-    out = np.zeros((h * scale, w * scale, color.shape[2]), np.float64)
+    rows, wy = taps(h, hh, jy)
+    cols, wx = taps(w, ww, jx)
+    out = np.zeros((hh, ww, color.shape[2]), np.float64)
     for a in range(4):
         for b in range(4):
             out += (wy[:, a, None, None] * wx[None, :, b, None]) * color[rows[:, a]][:, cols[:, b]]
     return out.astype(np.float32)
 
 
-def nearby_samples(current: np.ndarray, jitter, scale: int, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+def nearby_samples(current: np.ndarray, jitter, scale, sigma: float, hr_size=None) -> tuple[np.ndarray, np.ndarray]:
     """Gaussian-weighted mean ``(H, W, 3)`` of the 3x3 LR samples around each HR pixel, and their
-    total weight ``(H, W, 1)``; sample ``(i, j)`` sits at HR ``s (j + 0.5 + jx), s (i + 0.5 + jy)``."""
+    total weight ``(H, W, 1)``; HR pixel ``(Y, X)`` belongs to LR pixel ``nearest_index`` and sample
+    ``(i, j)`` sits at HR ``rx (j + 0.5 + jx), ry (i + 0.5 + jy)``, ``rx = W / w``, ``ry = H / h``."""
     h, w = current.shape[:2]
-    s = scale
+    hh, ww = hr_dims((h, w), scale, hr_size)
+    rx, ry = ww / w, hh / h
     jx, jy = (float(v) for v in np.asarray(jitter, np.float32).reshape(2))
     padded = np.pad(current, ((1, 1), (1, 1), (0, 0)), mode="edge")
-    hr_y, hr_x = np.arange(h * s) + 0.5, np.arange(w * s) + 0.5
-    lr_y, lr_x = np.arange(h * s) // s + 0.5, np.arange(w * s) // s + 0.5
-    acc = np.zeros((h * s, w * s, current.shape[2]), np.float64)
-    total = np.zeros((h * s, w * s, 1), np.float64)
+    hr_y, hr_x = np.arange(hh) + 0.5, np.arange(ww) + 0.5
+    lr_y, lr_x = nearest_index(hh, h) + 0.5, nearest_index(ww, w) + 0.5
+    acc = np.zeros((hh, ww, current.shape[2]), np.float64)
+    total = np.zeros((hh, ww, 1), np.float64)
     for dy in (-1, 0, 1):
-        wy = np.exp(-0.5 * (((lr_y + dy + jy) * s - hr_y) / sigma) ** 2)
+        wy = np.exp(-0.5 * (((lr_y + dy + jy) * ry - hr_y) / sigma) ** 2)
         for dx in (-1, 0, 1):
-            wx = np.exp(-0.5 * (((lr_x + dx + jx) * s - hr_x) / sigma) ** 2)
+            wx = np.exp(-0.5 * (((lr_x + dx + jx) * rx - hr_x) / sigma) ** 2)
             weight = (wy[:, None] * wx[None, :])[..., None]
-            acc += weight * nearest_up(padded[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w], s)
+            acc += weight * nearest_up(padded[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w], scale, (ww, hh))
             total += weight
     return (acc / np.maximum(total, 1e-12)).astype(np.float32), total.astype(np.float32)
 
 
-def neighbourhood_box(current: np.ndarray, scale: int, clip: str = "minmax", gamma: float = 1.25) -> tuple[np.ndarray, np.ndarray]:
+def neighbourhood_box(current: np.ndarray, scale, clip: str = "minmax", gamma: float = 1.25,
+                      hr_size=None) -> tuple[np.ndarray, np.ndarray]:
     """Per-HR-pixel colour box ``(lo, hi)``, each ``(H, W, C)``, from the 3x3 LR neighbourhood
     (min/max, or mean +- ``gamma`` std with ``clip="variance"``)."""
     h, w = current.shape[:2]
@@ -94,7 +144,7 @@ def neighbourhood_box(current: np.ndarray, scale: int, clip: str = "minmax", gam
         mean = window.mean(axis=0)
         std = np.sqrt(np.maximum((window * window).mean(axis=0) - mean * mean, 0.0))
         lo, hi = mean - gamma * std, mean + gamma * std
-    return nearest_up(lo, scale), nearest_up(hi, scale)
+    return nearest_up(lo, scale, hr_size), nearest_up(hi, scale, hr_size)
 
 
 def undo_bilinear_blur(image: np.ndarray, spread: np.ndarray) -> np.ndarray:
@@ -106,12 +156,13 @@ def undo_bilinear_blur(image: np.ndarray, spread: np.ndarray) -> np.ndarray:
     return (image - 0.5 * (spread[..., :1] * dxx + spread[..., 1:] * dyy)).astype(np.float32)
 
 
-def reprojected_history(history: np.ndarray, weight: np.ndarray, motion: np.ndarray, reset: bool, scale: int,
+def reprojected_history(history: np.ndarray, weight: np.ndarray, motion: np.ndarray, reset: bool, scale,
                         sharpen: bool = True, blur_penalty: float = 1.5) -> tuple[np.ndarray, np.ndarray]:
     """The previous output ``history`` (H, W, 3) RGB and its weight (H, W, 1) warped by the LR
-    ``motion`` (h, w, 2): YCoCg colour (blur undone), weight scaled by the blur penalty and zero
-    after a reset and where the motion leaves the frame."""
-    hr_motion = upsample_motion(np.asarray(motion, np.float32), scale)
+    ``motion`` (h, w, 2) upsampled to the history's size (``hr_motion_of``): YCoCg colour (blur
+    undone), weight scaled by the blur penalty and zero after a reset and where the motion leaves
+    the frame."""
+    hr_motion = hr_motion_of(motion, scale, (history.shape[1], history.shape[0]))
     warped = warp_bilinear(np.concatenate([history, weight], axis=-1), hr_motion)
     spread = resample_spread(hr_motion)
     colour = undo_bilinear_blur(warped[..., :3], spread) if sharpen else warped[..., :3]
@@ -127,24 +178,24 @@ def resample_spread(hr_motion: np.ndarray) -> np.ndarray:
     return (frac * (1.0 - frac)).astype(np.float32)
 
 
-def filter_gain(motion: np.ndarray, scale: int, falloff: float):
+def filter_gain(motion: np.ndarray, scale, falloff: float, hr_size=None):
     """What the display filter's weights are scaled by per HR pixel (H, W, 1): ``exp(-falloff (sx +
     sy))`` with the resample spread ``sx, sy`` of the HR motion upsampled from the LR ``motion``
     (h, w, 2), so the filter blurs less where a fractional fetch has just blurred the history; 1 when
     ``falloff`` is 0, the motion then not read."""
     if falloff <= 0.0:
         return np.float32(1.0)
-    spread = resample_spread(upsample_motion(np.asarray(motion, np.float32), scale))
+    spread = resample_spread(hr_motion_of(motion, scale, hr_size))
     return np.exp(-np.float32(falloff) * spread.sum(axis=-1, keepdims=True)).astype(np.float32)
 
 
-def current_terms(colour: np.ndarray, jitter, scale: int, sigma: float):
+def current_terms(colour: np.ndarray, jitter, scale, sigma: float, hr_size=None):
     """What one frame's LR ``colour`` (h, w, 3) RGB gives the blend, all YCoCg at HR: the nearby
     samples' mean and total weight, the bicubic frame and the clamp box ``(lo, hi)``."""
     current = rgb_to_ycocg(colour)
-    samples, sample_weight = nearby_samples(current, jitter, scale, sigma)
-    spatial = rgb_to_ycocg(bicubic_upsample(colour, jitter, scale))
-    return samples, sample_weight, spatial, *neighbourhood_box(current, scale)
+    samples, sample_weight = nearby_samples(current, jitter, scale, sigma, hr_size)
+    spatial = rgb_to_ycocg(bicubic_upsample(colour, jitter, scale, hr_size))
+    return samples, sample_weight, spatial, *neighbourhood_box(current, scale, hr_size=hr_size)
 
 
 def steering_features(colour: np.ndarray, history: np.ndarray, history_weight: np.ndarray, scale: int,
@@ -176,20 +227,20 @@ class Steer:
     fallback: np.ndarray | float = 0.0
 
 
-def history_floor(motion: np.ndarray, scale: int, history_gain_min: float, still_motion_px: float):
+def history_floor(motion: np.ndarray, scale, history_gain_min: float, still_motion_px: float, hr_size=None):
     """The least history gain per HR pixel: ``history_gain_min`` where the surface moved less than
     ``still_motion_px`` HR pixels, fading linearly to 0 at that motion (the length of the HR motion
     upsampled from the LR ``motion`` (h, w, 2)); ``history_gain_min`` everywhere when
     ``still_motion_px`` is 0, the motion then not read."""
     if still_motion_px <= 0.0:
         return np.float32(history_gain_min)
-    ramp = np.clip(1.0 - motion_length(motion, scale) / np.float32(still_motion_px), 0.0, 1.0)
+    ramp = np.clip(1.0 - motion_length(motion, scale, hr_size) / np.float32(still_motion_px), 0.0, 1.0)
     return (np.float32(history_gain_min) * ramp).astype(np.float32)
 
 
-def motion_length(motion: np.ndarray, scale: int) -> np.ndarray:
+def motion_length(motion: np.ndarray, scale, hr_size=None) -> np.ndarray:
     """(H, W, 1): the length of the HR motion upsampled from the LR ``motion`` (h, w, 2), HR pixels."""
-    hr = upsample_motion(np.asarray(motion, np.float32), scale)
+    hr = hr_motion_of(motion, scale, hr_size)
     return np.sqrt((hr * hr).sum(axis=-1, keepdims=True)).astype(np.float32)
 
 

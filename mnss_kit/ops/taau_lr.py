@@ -13,7 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from .resample import avgpool, upsample_bilinear
-from .taau import Steer, box_widening, neighbourhood_box, rgb_to_ycocg
+from .scale import resize_bilinear
+from .taau import Steer, box_widening, hr_dims, is_tiled, nearest_index, neighbourhood_box, rgb_to_ycocg
 from .warp import warp_bilinear
 
 DEPTH_FLOOR = 1e-4  # depth below which the relative change is taken against this (model.ntaau_lr.net)
@@ -65,28 +66,59 @@ def pad_even(x: np.ndarray) -> np.ndarray:
     return np.pad(x, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge")
 
 
+def block_mean(x: np.ndarray, lr_hw, scale) -> np.ndarray:
+    """The mean of each LR pixel's HR block ``(H, W, C)`` -> ``(h, w, C)``: the HR pixels whose nearest
+    LR pixel it is (``ops.taau.nearest_index``; contiguous runs of 1 or 2 at 1.5x); ``avgpool`` over
+    ``s x s`` tiles at an integer scale (``model.taau.block_mean``)."""
+    h, w = int(lr_hw[0]), int(lr_hw[1])
+    if is_tiled((h, w), x.shape[:2], scale):
+        return avgpool(x, int(scale))
+    x = np.asarray(x, np.float32)
+    rows, cols = nearest_index(x.shape[0], h), nearest_index(x.shape[1], w)
+    starts_y, starts_x = np.searchsorted(rows, np.arange(h)), np.searchsorted(cols, np.arange(w))
+    sums = np.add.reduceat(np.add.reduceat(x, starts_y, axis=0), starts_x, axis=1)
+    count = np.diff(np.append(starts_y, x.shape[0]))[:, None, None] * np.diff(np.append(starts_x, x.shape[1]))[None, :, None]
+    return (sums / count.astype(np.float32)).astype(np.float32)
+
+
 def steering_features(colour: np.ndarray, history: np.ndarray, history_weight: np.ndarray, change: np.ndarray,
-                      spread: np.ndarray, scale: int, max_weight: float) -> np.ndarray:
+                      spread: np.ndarray, scale, max_weight: float, scale_input: bool = False) -> np.ndarray:
     """The steering net's input (h', w', 8), padded to an even size: the LR colour, the clamped YCoCg
     ``history``'s luma minus the colour's, the clamp distance and ``history_weight / max_weight``
-    (each the mean over the pixel's s x s HR block), the depth change and the spread (capped)."""
+    (each the mean over the pixel's HR block, ``block_mean``), the depth change and the spread
+    (capped); with ``scale_input`` a 9th channel, ``1 / scale``.  The HR size is the history's."""
     colour = np.asarray(colour, np.float32)
-    lo, hi = neighbourhood_box(rgb_to_ycocg(colour), scale)
+    lr_hw = colour.shape[:2]
+    hr_size = (history.shape[1], history.shape[0])
+    lo, hi = neighbourhood_box(rgb_to_ycocg(colour), scale, hr_size=hr_size)
     clamped = np.minimum(np.maximum(history, lo), hi)
-    distance = avgpool(np.abs(history - clamped).sum(axis=-1, keepdims=True), scale)
-    weight = avgpool(history_weight, scale) / np.float32(max_weight)
-    luma_gap = avgpool(clamped[..., :1], scale) - rgb_to_ycocg(colour)[..., :1]
+    distance = block_mean(np.abs(history - clamped).sum(axis=-1, keepdims=True), lr_hw, scale)
+    weight = block_mean(history_weight, lr_hw, scale) / np.float32(max_weight)
+    luma_gap = block_mean(clamped[..., :1], lr_hw, scale) - rgb_to_ycocg(colour)[..., :1]
     capped = np.minimum(spread, np.float32(SPREAD_CAP))
-    return pad_even(np.concatenate([colour, luma_gap, distance, weight, change, capped], axis=-1).astype(np.float32))
+    parts = [colour, luma_gap, distance, weight, change, capped]
+    if scale_input:
+        parts.append(np.full_like(capped, np.float32(1.0 / float(scale))))
+    return pad_even(np.concatenate(parts, axis=-1).astype(np.float32))
 
 
-def steer_from_lr(raw: np.ndarray, trust_lr: np.ndarray, scale: int, box_bound: float, filter_bound: float) -> Steer:
+def upsample_to_hr(x: np.ndarray, scale, hr_size=None) -> np.ndarray:
+    """LR values (h, w, C) bilinearly to HR (clamp-to-edge, texel centres): ``upsample_bilinear`` at
+    an integer scale, ``ops.scale.resize_bilinear`` to the HR size ``(W, H)`` at a fractional one."""
+    hr_hw = hr_dims(x.shape[:2], scale, hr_size)
+    if is_tiled(x.shape[:2], hr_hw, scale):
+        return upsample_bilinear(x, int(scale))
+    return resize_bilinear(np.asarray(x, np.float32), (hr_hw[1], hr_hw[0]))
+
+
+def steer_from_lr(raw: np.ndarray, trust_lr: np.ndarray, scale, box_bound: float, filter_bound: float,
+                  hr_size=None) -> Steer:
     """The raw LR steering (h, w, 6; the net's padded output cropped) and the trust map (h, w, 1)
     upsampled bilinearly to HR (clamp-to-edge, texel centres) and mapped: history gain 2 sigmoid,
     its part above 1 scaled by the trust; sample gain 2 sigmoid; box widening, a widening scaled by
     the trust; fallback max(tanh, 0); the display filter's weights ``filter_bound`` tanh."""
     both = np.concatenate([np.asarray(raw, np.float32), np.asarray(trust_lr, np.float32)], axis=-1)
-    hr = upsample_bilinear(both, scale)
+    hr = upsample_to_hr(both, scale, hr_size)
     allowed = hr[..., 6:7]
     sigmoid = lambda x: 1.0 / (1.0 + np.exp(-np.clip(x, -80.0, 80.0)))  # noqa: E731  (no overflow; same values)
     history_gain = 2.0 * sigmoid(hr[..., 0:1])
@@ -100,9 +132,9 @@ def steer_from_lr(raw: np.ndarray, trust_lr: np.ndarray, scale: int, box_bound: 
                  filter_diagonal=(bound * np.tanh(hr[..., 5:6])).astype(np.float32))
 
 
-def filter_weights(raw: np.ndarray, scale: int, filter_bound: float) -> tuple[np.ndarray, np.ndarray]:
+def filter_weights(raw: np.ndarray, scale, filter_bound: float, hr_size=None) -> tuple[np.ndarray, np.ndarray]:
     """The display filter's axis and diagonal weights (each (H, W, 1)) from the raw LR steering (h, w, 6)."""
-    hr = upsample_bilinear(np.asarray(raw, np.float32)[..., 4:6], scale)
+    hr = upsample_to_hr(np.asarray(raw, np.float32)[..., 4:6], scale, hr_size)
     bound = np.float32(filter_bound)
     return (bound * np.tanh(hr[..., 0:1])).astype(np.float32), (bound * np.tanh(hr[..., 1:2])).astype(np.float32)
 

@@ -29,10 +29,11 @@ def _loss(config: NTAAULRConfig, train):
     return DisplayLoss(config.scale, train.perceptual_weight, train.flicker_weight, train.mse_weight)
 
 
-def _gpu_plan(config: NTAAULRConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
+def _gpu_plan(config: NTAAULRConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str,
+              hr_size=None) -> dict:
     from .gpu_plan import bundle_gpu_plan
 
-    return bundle_gpu_plan(config, state_dict, lr_size, npu, profile)
+    return bundle_gpu_plan(config, state_dict, lr_size, npu, profile, hr_size)
 
 
 NTAAU_LR_FAMILY = Family(

@@ -5,7 +5,10 @@ frame; weight 0 on a reset), ``taau_lr_evidence_pass`` (depth change, motion spr
 LR, from this depth and the last), ``taau_lr_pack_pass`` (the int8 NPU input at LR, padded to an
 even size), the NPU steering net, ``taau_lr_accumulate_pass`` (the steering upsampled to HR, the
 blend with its fallback: the next history and the display) and, when the net steers a display
-filter, ``taau_lr_filter_pass``.  At the end of the frame ``depth`` and ``prev_depth`` swap: this
+filter, ``taau_lr_filter_pass``.  At a fractional scale (a quality mode such as 1.5x) the passes
+get ``u_scale`` 0 and map HR texels to LR by the ratio of their textures' sizes, the reprojection
+is ``taau_lr_reproject_pass`` (the motion resized to the HR size, times each axis's ratio) and the
+filter pass gets the LR size as ``u_lr_size``.  At the end of the frame ``depth`` and ``prev_depth`` swap: this
 frame's depth is the next one's previous depth, without a copy.  No learned weights run on the GPU.
 """
 
@@ -20,16 +23,38 @@ from .config import FEATURE_CHANNELS as FEATURES, STEER_CHANNELS, NTAAULRConfig
 
 PASSES_USED = ("taau_reproject_pass", "taau_lr_evidence_pass", "taau_lr_pack_pass", "taau_lr_accumulate_pass")
 FILTER_PASS = "taau_lr_filter_pass"
+RATIO_REPROJECT = "taau_lr_reproject_pass"  # the reprojection at a fractional scale
+
+
+def is_fractional(config: NTAAULRConfig) -> bool:
+    return not float(config.scale).is_integer()
+
+
+def hr_size_of(config: NTAAULRConfig, lr_size, hr_size=None) -> tuple[int, int]:
+    """``(W, H)``: ``hr_size`` when given, else ``lr_size`` times an integer scale or ``ops.scale.hr_size_for``."""
+    from ...ops.scale import hr_size_for
+
+    if hr_size is not None:
+        return int(hr_size[0]), int(hr_size[1])
+    return tuple(hr_size_for(lr_size, config.scale))
 
 
 def passes_used(config: NTAAULRConfig) -> set[str]:
-    return set(PASSES_USED) | ({FILTER_PASS} if config.filter_bound > 0 else set())
+    used = set(PASSES_USED) | ({FILTER_PASS} if config.filter_bound > 0 else set())
+    return used - {"taau_reproject_pass"} | {RATIO_REPROJECT} if is_fractional(config) else used
 
 
-def bundle_gpu_plan(config: NTAAULRConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
-    """The family record's ``gpu_plan``: passes, weight blocks (none), resources and schedule."""
-    return {"passes": pass_entries(passes_used(config)), "weights": [], "resources": resources(config, lr_size),
-            "schedule": schedule(config, lr_size, npu, profile)}
+def bundle_gpu_plan(config: NTAAULRConfig, state_dict: dict, lr_size: tuple[int, int], npu: dict, profile: str,
+                    hr_size=None) -> dict:
+    """The family record's ``gpu_plan``: passes, weight blocks (none), resources and schedule; ``hr_size``
+    ``(W, H)`` at a fractional scale (else ``lr_size`` times the scale)."""
+    if config.scale_input:
+        from ...errors import UserError
+
+        raise UserError("an ntaau_lr model with scale_input: true has 9 NPU input channels, which the bundle's pack pass "
+                        "does not write yet (export a model with scale_input: false)")
+    return {"passes": pass_entries(passes_used(config)), "weights": [], "resources": resources(config, lr_size, hr_size),
+            "schedule": schedule(config, lr_size, npu, profile, hr_size)}
 
 
 def npu_size(lr_size: tuple[int, int]) -> tuple[int, int]:
@@ -54,10 +79,10 @@ def _buf(name, words, note):
             "description": note}
 
 
-def resources(config: NTAAULRConfig, lr_size: tuple[int, int]) -> list[dict]:
+def resources(config: NTAAULRConfig, lr_size: tuple[int, int], hr_size=None) -> list[dict]:
     """Every texture and buffer a phone keeps for the schedule.  Sizes are ``[width, height]``."""
     w, h = lr_size
-    hr, lr = [w * config.scale, h * config.scale], [w, h]
+    hr, lr = list(hr_size_of(config, lr_size, hr_size)), [w, h]
     return [
         _tex("color", lr, P.INPUT_FORMATS["color"], "input", "jittered LR colour, display values in [0, 1]", 3),
         _tex("depth", lr, P.INPUT_FORMATS["depth"], "input", "LR depth, linear in [0, 1]; swaps with prev_depth at the end of "
@@ -76,18 +101,25 @@ def resources(config: NTAAULRConfig, lr_size: tuple[int, int]) -> list[dict]:
     ]
 
 
-def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile: str) -> dict:
+def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile: str, hr_size=None) -> dict:
     """The per-frame steps.  ``npu``: ``{"model", "input", "output", "input_q", "output_q"}``."""
-    s = config.scale
+    fractional = is_fractional(config)
+    s = 0 if fractional else config.scale  # u_scale 0: the passes map HR to LR by their textures' sizes
     params = TAAUParams(alpha=config.alpha)
     a = dict(lr_size=lr_size, scale=s)
+    if fractional:
+        a["hr_size"] = hr_size_of(config, lr_size, hr_size)
+    reproject_uniforms = {"u_reset": per_frame("reset"), "u_blur_penalty": const(params.blur_penalty)}
     words = tensor_words(lr_size, FEATURES)
     out_scale, out_zp = npu["output_q"]
     dequantize = {"u_q_scale": const(float(np.float32(out_scale))), "u_q_zero_point": const(int(out_zp))}
     steps = [
+        step(RATIO_REPROJECT, "reproject history", "lr_gather",
+             {"history": "history", "motion": "motion", "reprojected": "reprojected"}, reproject_uniforms, **a)
+        if fractional else
         step("taau_reproject_pass", "reproject history", "lr_gather",
              {"history": "history", "motion": "motion", "reprojected": "reprojected"},
-             {"u_scale": const(s), "u_reset": per_frame("reset"), "u_blur_penalty": const(params.blur_penalty)}, **a),
+             {"u_scale": const(s), **reproject_uniforms}, **a),
         step("taau_lr_evidence_pass", "depth change, motion spread, trust", "lr_gather",
              {"depth": "depth", "prev_depth": "prev_depth", "motion": "motion", "evidence": "evidence"},
              {"u_reset": per_frame("reset"), "u_trust_depth": const(config.trust_depth),
@@ -109,7 +141,8 @@ def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile
     if config.filter_bound > 0:
         steps.append(step(FILTER_PASS, "display filter", "lr_accumulate",
                           {"npu_output": "npu_output", "history": "history", "display": "display"},
-                          {"u_scale": const(s), **dequantize, "u_filter_bound": const(config.filter_bound)}, **a))
+                          {"u_scale": const(s), "u_lr_size": const([int(v) for v in lr_size]), **dequantize,
+                           "u_filter_bound": const(config.filter_bound)}, **a))
     return {
         "steps": steps,
         "end_of_frame": [{"swap": ["depth", "prev_depth"]}],

@@ -44,7 +44,7 @@ from ..family import check_frame
 from ..layers import warp_bilinear
 from ..taau import (Steer, TAAUInputs, TAAUParams, blend, block_mean, box_widening, hr_dims, is_tiled, rgb_to_ycocg,
                     sanitize_colour, sanitize_depth, sanitize_motion, taau_inputs)
-from ...ops.scale import size_mismatch
+from ...ops.scale import parse_scale, size_mismatch
 from .config import NTAAULRConfig
 
 STAGE_ORDER = ("lr_gather", "steer", "lr_accumulate")
@@ -92,12 +92,12 @@ class Gather(nn.Module):
         super().__init__()
         self.config, self.params = config, params
 
-    def forward(self, color, depth, previous_depth, jitter, motion, reset, state, hr_size=None):
+    def forward(self, color, depth, previous_depth, jitter, motion, reset, state, hr_size=None, scale=None):
         """-> (TAAUInputs, trust (N, 1, h, w), features (N, 8 or 9, h', w') with h', w' the even size).
         The block means are ``model.taau.block_mean`` (``avg_pool2d`` over s x s at an integer scale,
         the HR pixels nearest each LR pixel at a fractional one); ``hr_size`` ``(W, H)`` or None
-        (the history's, else ``model.taau.hr_dims``)."""
-        s = self.config.scale
+        (the history's, else ``model.taau.hr_dims``); ``scale`` None: the config's."""
+        s = self.config.scale if scale is None else scale
         lr_hw = color.shape[-2:]
         inputs = taau_inputs(color, jitter, motion, reset, state, s, self.params, hr_size)
         clamped = torch.minimum(torch.maximum(inputs.history, inputs.lo), inputs.hi)
@@ -183,7 +183,11 @@ class Accumulate(nn.Module):
 
 
 class NTAAULR(nn.Module):
-    """``model(frame, state) -> (output, aux, state)``; see the module docstring."""
+    """``model(frame, state) -> (output, aux, state)``; see the module docstring.  Takes any scale:
+    a frame may carry ``scale`` (N,), one value per batch (``takes_frame_scale``), which sets the HR
+    size of a fresh history and the 1/s input of a ``scale_input`` net."""
+
+    takes_frame_scale = True
 
     def __init__(self, config: NTAAULRConfig):
         super().__init__()
@@ -201,20 +205,31 @@ class NTAAULR(nn.Module):
         """The HR size ``(W, H)`` of the frames about to run (the eval loop calls it); None: the scale's."""
         self.output_size = None if hr_size is None else (int(hr_size[0]), int(hr_size[1]))
 
-    def hr_size(self, lr_hw) -> tuple[int, int]:
-        """``(W, H)`` of the output for LR frames of ``(h, w)``."""
-        if self.output_size is not None and size_mismatch((lr_hw[1], lr_hw[0]), self.output_size, self.scale) is None:
+    def hr_size(self, lr_hw, scale=None) -> tuple[int, int]:
+        """``(W, H)`` of the output for LR frames of ``(h, w)`` at ``scale`` (default: the config's)."""
+        scale = self.scale if scale is None else scale
+        if self.output_size is not None and size_mismatch((lr_hw[1], lr_hw[0]), self.output_size, scale) is None:
             return self.output_size
-        height, width = hr_dims(lr_hw, self.scale)
+        height, width = hr_dims(lr_hw, scale)
         return width, height
 
     def stages(self) -> list[tuple[str, nn.Module, str]]:
         return [(n, getattr(self, n), getattr(self, n).placement) for n in STAGE_ORDER]
 
+    def frame_scale(self, frame: dict):
+        """The scale of this batch: the frame key ``scale`` (N,) when given (``takes_frame_scale``: one
+        checkpoint trained or run at several scales, one scale per batch), else the config's."""
+        value = frame.get("scale")
+        if value is None:
+            return self.scale
+        value = float(value.reshape(-1)[0]) if torch.is_tensor(value) else float(value)
+        value = round(value, 3)  # a float32 1.7 is 1.70000005: quality modes have at most 3 decimals
+        return self.scale if value == float(self.scale) else parse_scale(value, "frame scale")
+
     def initial_state(self, frame: dict) -> dict:
         color = frame["color"]
         n, _, h, w = color.shape
-        width, height = self.hr_size((h, w))
+        width, height = self.hr_size((h, w), self.frame_scale(frame))
         return {"history": color.new_zeros(n, 3, height, width), "weight": color.new_zeros(n, 1, height, width),
                 "depth": sanitize_depth(frame["depth"]).clone()}
 
@@ -233,7 +248,8 @@ class NTAAULR(nn.Module):
         previous_depth = torch.where(cut, depth, state["depth"])
         state = {"history": torch.where(cut, 0.0, state["history"]), "weight": torch.where(cut, 0.0, state["weight"])}
         hr_size = (state["history"].shape[-1], state["history"].shape[-2])
-        inputs, trust_lr, features = self.lr_gather(color, depth, previous_depth, jitter, motion, reset, state, hr_size)
+        inputs, trust_lr, features = self.lr_gather(color, depth, previous_depth, jitter, motion, reset, state, hr_size,
+                                                    self.frame_scale(frame))
         output, next_state = self.lr_accumulate(inputs, trust_lr, self.steer(features))
         with torch.no_grad():
             taau, _ = blend(inputs, self.params)

@@ -60,6 +60,78 @@ BilinearTaps upsample_taps(ivec2 hr, int scale, ivec2 lr_size) {
     return bilinear_taps((vec2(hr) + 0.5) / float(scale), lr_size);
 }
 
+// -- any scale (u_scale 0: a quality mode such as 1.5x) ------------------------------------------
+// HR texel X maps to LR position (X + 0.5) lr / hr per axis (the exact ratio of the two sizes,
+// ops.taau); its LR texel is floor((2X + 1) lr / (2 hr)), in integers (ops.taau.nearest_index).
+
+ivec2 lr_texel_of(ivec2 hr, ivec2 lr_size, ivec2 hr_size) {
+    return ((2 * hr + 1) * lr_size) / (2 * hr_size);
+}
+
+// The first HR texel (per axis) whose LR texel is `lr` or later: ceil((2 lr hr - lr_n) / (2 lr_n)).
+ivec2 first_hr_texel(ivec2 lr, ivec2 lr_size, ivec2 hr_size) {
+    return (2 * lr * hr_size + lr_size - 1) / (2 * lr_size);
+}
+
+// The bilinear taps of the LR -> HR resize at HR texel `hr` (ops.scale.resize_bilinear).
+BilinearTaps resize_taps(ivec2 hr, ivec2 lr_size, ivec2 hr_size) {
+    return bilinear_taps((vec2(hr) + 0.5) * (vec2(lr_size) / vec2(hr_size)), lr_size);
+}
+
+// HR motion at HR texel `hr`: the LR motion resized bilinearly, times each axis's ratio (ops.taau.hr_motion_of).
+vec2 resized_motion_at(highp sampler2D motion, ivec2 hr, ivec2 hr_size) {
+    vec2 lr = vec2(textureSize(motion, 0));
+    return motion_bilinear(motion, (vec2(hr) + 0.5) * (lr / vec2(hr_size))) * (vec2(hr_size) / lr);
+}
+
+// Jitter-aware bicubic at HR texel `hr` of an `hr_size` image (ops.taau.bicubic_upsample at any scale), YCoCg.
+vec3 spatial_ratio_at(highp sampler2D color, ivec2 hr, vec2 jitter, ivec2 hr_size) {
+    ivec2 size = textureSize(color, 0);
+    vec2 u = (vec2(hr) + 0.5) * (vec2(size) / vec2(hr_size)) - jitter - 0.5;
+    vec2 base = floor(u);
+    vec4 wx = cubic_weights(u.x - base.x);
+    vec4 wy = cubic_weights(u.y - base.y);
+    ivec2 b = ivec2(base);
+    vec3 acc = vec3(0.0);
+    for (int a = 0; a < 4; a++) {
+        int row = clamp(b.y + a - 1, 0, size.y - 1);
+        for (int c = 0; c < 4; c++) {
+            int col = clamp(b.x + c - 1, 0, size.x - 1);
+            acc += (wy[a] * wx[c]) * colour_texel(color, ivec2(col, row));
+        }
+    }
+    return rgb_to_ycocg(acc);
+}
+
+// ops.taau.nearby_samples and the clamp box at any scale: the 3x3 LR samples around HR texel
+// `hr`'s LR texel, each at (i + 0.5 + jitter) times the per-axis ratio in HR pixels.
+Neighbourhood neighbourhood_ratio_at(highp sampler2D color, ivec2 hr, vec2 jitter, ivec2 hr_size, float sigma) {
+    ivec2 size = textureSize(color, 0);
+    ivec2 lr = lr_texel_of(hr, size, hr_size);
+    vec2 r = vec2(hr_size) / vec2(size);
+    vec2 centre = vec2(hr) + 0.5;
+    Neighbourhood n;
+    vec3 acc = vec3(0.0);
+    float total = 0.0;
+    n.lo = vec3(1e30);
+    n.hi = vec3(-1e30);
+    for (int dy = -1; dy <= 1; dy++) {
+        float ey = ((float(lr.y) + 0.5 + float(dy) + jitter.y) * r.y - centre.y) / sigma;
+        float wy = exp(-0.5 * ey * ey);
+        for (int dx = -1; dx <= 1; dx++) {
+            float ex = ((float(lr.x) + 0.5 + float(dx) + jitter.x) * r.x - centre.x) / sigma;
+            float w = wy * exp(-0.5 * ex * ex);
+            vec3 c = rgb_to_ycocg(colour_texel(color, clamp(lr + ivec2(dx, dy), ivec2(0), size - 1)));
+            acc += w * c;
+            total += w;
+            n.lo = min(n.lo, c);
+            n.hi = max(n.hi, c);
+        }
+    }
+    n.samples = vec4(acc / max(total, 1e-12), total);
+    return n;
+}
+
 float upsampled(float a, float b, float c, float d, vec2 frac) {
     return bilinear_blend(vec4(a), vec4(b), vec4(c), vec4(d), frac).x;
 }

@@ -22,7 +22,7 @@ layout(binding = 2) uniform highp sampler2D evidence;
 layout(rgba16f, binding = 0) uniform writeonly highp image2D history;
 layout(rgba8, binding = 1) uniform writeonly highp image2D display;
 
-uniform int u_scale;
+uniform int u_scale;  // 2, 3, 4; 0 at a fractional scale (the sizes of color and history give the ratio)
 uniform vec2 u_jitter;
 uniform float u_q_scale;
 uniform int u_q_zero_point;
@@ -57,14 +57,22 @@ void main() {
     if (any(greaterThanEqual(hr, size))) {
         return;
     }
-    BilinearTaps t = upsample_taps(hr, u_scale, textureSize(color, 0));
+    // u_scale 0: any scale, HR texels mapped to LR by the ratio of the two sizes
+    BilinearTaps t = u_scale == 0 ? resize_taps(hr, textureSize(color, 0), size) : upsample_taps(hr, u_scale, textureSize(color, 0));
     float raw[6];
     for (int c = 0; c < 6; c++) {
         raw[c] = upsampled_at(t, c);
     }
     LrSteer s = steer_from_lr(raw, upsampled_at(t, STEER_CHANNELS), u_box_bound);
-    Neighbourhood n = neighbourhood_at(color, hr, u_jitter, u_scale, u_sample_sigma);
-    vec3 spatial = spatial_at(color, hr, u_jitter, u_scale);
+    Neighbourhood n;
+    vec3 spatial;
+    if (u_scale == 0) {
+        n = neighbourhood_ratio_at(color, hr, u_jitter, size, u_sample_sigma);
+        spatial = spatial_ratio_at(color, hr, u_jitter, size);
+    } else {
+        n = neighbourhood_at(color, hr, u_jitter, u_scale, u_sample_sigma);
+        spatial = spatial_at(color, hr, u_jitter, u_scale);
+    }
     vec4 blended = fallback_blend(n, spatial, texelFetch(reprojected, hr, 0), s, u_prior_weight, u_max_weight);
     imageStore(history, hr, round_to_half(blended));
     imageStore(display, hr, encode_unorm8(vec4(blended.rgb, 1.0)));

@@ -16,7 +16,8 @@ layout(std430, binding = 0) readonly buffer NpuOutput { uint npu_output[]; };
 layout(binding = 0) uniform highp sampler2D history;
 layout(rgba8, binding = 0) uniform writeonly highp image2D display;
 
-uniform int u_scale;
+uniform int u_scale;  // 2, 3, 4; 0 at a fractional scale: the LR size is u_lr_size
+uniform ivec2 u_lr_size;
 uniform float u_q_scale;
 uniform int u_q_zero_point;
 uniform float u_filter_bound;
@@ -44,8 +45,8 @@ void main() {
     if (any(greaterThanEqual(hr, size))) {
         return;
     }
-    ivec2 lr_size = size / u_scale;
-    BilinearTaps t = upsample_taps(hr, u_scale, lr_size);
+    ivec2 lr_size = u_scale == 0 ? u_lr_size : size / u_scale;
+    BilinearTaps t = u_scale == 0 ? resize_taps(hr, lr_size, size) : upsample_taps(hr, u_scale, lr_size);
     int padded_width = lr_size.x + lr_size.x % 2;
     float axis = filter_weight_at(t, padded_width, 4);
     float diagonal = filter_weight_at(t, padded_width, 5);

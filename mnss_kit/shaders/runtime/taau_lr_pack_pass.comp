@@ -8,7 +8,8 @@
 //                                    even (edge pixels repeated): the LR colour, the clamped
 //                                    history's luma minus the colour's, the clamp distance, the
 //                                    history weight / u_max_weight (each the mean over the s x s HR
-//                                    block), the depth change, the motion spread (at most 4)
+//                                    block; u_scale 0: any scale, the HR texels nearest the LR one),
+//                                    the depth change, the motion spread (at most 4)
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -48,16 +49,29 @@ vec3 block_means(ivec2 p) {
             hi = max(hi, v);
         }
     }
+    // the HR block: s x s texels at an integer scale; at any scale (u_scale 0) the texels whose
+    // nearest LR texel is p (ops.taau_lr.block_mean)
+    ivec2 first = p * u_scale;
+    ivec2 end = first + u_scale;
+    if (u_scale == 0) {
+        ivec2 lr_size = textureSize(color, 0);
+        ivec2 hr_size = textureSize(reprojected, 0);
+        first = first_hr_texel(p, lr_size, hr_size);
+        end = first_hr_texel(p + 1, lr_size, hr_size);
+        if (u_reset != 0) {
+            end = first + 1;  // a zero history: every texel of the block gives the same values
+        }
+    }
     vec3 sum = vec3(0.0);
-    for (int sy = 0; sy < u_scale; sy++) {
-        for (int sx = 0; sx < u_scale; sx++) {
-            vec4 history = u_reset != 0 ? vec4(0.0) : texelFetch(reprojected, p * u_scale + ivec2(sx, sy), 0);
+    for (int y = first.y; y < end.y; y++) {
+        for (int x = first.x; x < end.x; x++) {
+            vec4 history = u_reset != 0 ? vec4(0.0) : texelFetch(reprojected, ivec2(x, y), 0);
             vec3 clamped = min(max(history.rgb, lo), hi);
             vec3 d = abs(history.rgb - clamped);
             sum += vec3(clamped.x, d.x + d.y + d.z, history.a);
         }
     }
-    return sum / float(u_scale * u_scale);
+    return sum / float((end.x - first.x) * (end.y - first.y));
 }
 
 // The four channels of LR texel `p` in word `half` (0: channels 0-3, 1: channels 4-7); `p` is
