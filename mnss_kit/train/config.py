@@ -40,7 +40,7 @@ class TrainConfig:
     window: int = 6  # T: frames per recurrent window that carry the loss
     burn_in: int = 0  # frames run before them without gradient or loss, to build up the history
     batch_size: int = 4  # windows per step and process
-    crop: int = 32  # LR pixels (square); HR crop is crop * scale
+    crop: int = 32  # LR pixels (square); HR crop is crop * scale (several scales: rounded to each scale's grid)
     epochs: int = 10
     steps_per_epoch: int = 100
     total_steps: int | None = None  # overrides epochs * steps_per_epoch when set
