@@ -46,12 +46,13 @@ def detach_state(state):
 
 def batch_scale(batch: dict[str, torch.Tensor], model: nn.Module):
     """The scale of a batch (or frame): its ``scale`` key (one value for the whole batch; an int
-    when integral), else the model's own."""
+    when integral), else the model's own.  The key is float32, so the value is rounded to the 3
+    decimals a scale has (``ops.scale.parse_scale``): 1.7, not 1.70000005."""
     value = batch.get("scale")
     if value is None:
         return model.scale
-    first = float(value.reshape(-1)[0])
-    if not bool((value == first).all()):
+    first = round(float(value.reshape(-1)[0]), 3)
+    if not bool((value == value.reshape(-1)[0]).all()):
         raise ValueError(f"a batch holds several scales {sorted(set(value.reshape(-1).tolist()))}; one scale per batch")
     return int(first) if first.is_integer() else first
 
