@@ -95,8 +95,11 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
         from .sequence import sequence_frames
 
         sequence = sequence_frames(request.sequence, lr_size, model.scale, inputs, request.sequence_frames)
+    section = model_section(ckpt, record)
+    if isinstance(section["config"], dict) and section["config"].get("scale") != model.scale:  # --scale: the config it runs
+        section["config"] = {**section["config"], "scale": model.scale}
     parts = BundleParts(
-        model=model_section(ckpt, record),
+        model=section,
         plan=plan,
         scale=model.scale,
         lr_size=lr_size,

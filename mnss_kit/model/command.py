@@ -18,7 +18,7 @@ def run(args: argparse.Namespace) -> int:
     from .listing import checkpoint_rows, config_rows
 
     rows = checkpoint_rows()
-    listing = {"checkpoints": rows}
+    listing = {"checkpoints": rows, "families": family_rows()}
     if args.configs or not rows:
         listing["configs"] = config_rows()
     if args.json:
@@ -33,7 +33,24 @@ def run(args: argparse.Namespace) -> int:
     if "configs" in listing:
         print("\nModel configs (mnss_kit/configs/models/):")
         print(_table(listing["configs"], ("name", "family", "scale", "macs_per_pixel", "npu_macs_per_pixel", "params")))
+    print("\nFamilies and the scales they take (quality modes such as 1.5x are fractional scales):")
+    print(_table([{**r, "fractional": "yes" if r["fractional"] else "no"} for r in listing["families"]],
+                 ("family", "fractional", "scales")))
     return 0
+
+
+def family_rows() -> list[dict]:
+    """Per family: whether it takes fractional scales (``ops.scale.INTEGER_SCALE_ONLY`` says why not)."""
+    from ..ops.scale import INTEGER_SCALE_ONLY, INTEGER_SCALES, MAX_SCALE, MIN_SCALE
+    from .families import FAMILIES
+
+    rows = []
+    for name in FAMILIES:
+        why = INTEGER_SCALE_ONLY.get(name)
+        scales = (f"{', '.join(map(str, INTEGER_SCALES))} only: {why}" if why
+                  else f"any in [{MIN_SCALE}, {MAX_SCALE}] (e.g. 1.5, 1.7, 2)")
+        rows.append({"family": name, "fractional": why is None, "scales": scales})
+    return rows
 
 
 def _table(rows: list[dict], columns: tuple[str, ...]) -> str:

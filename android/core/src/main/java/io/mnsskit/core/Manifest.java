@@ -2,6 +2,8 @@ package io.mnsskit.core;
 
 import java.io.File;
 import java.io.IOException;
+import java.math.BigDecimal;
+import java.math.RoundingMode;
 import java.nio.charset.StandardCharsets;
 import java.nio.file.Files;
 import java.util.ArrayList;
@@ -27,11 +29,28 @@ public final class Manifest {
     /** The newest format version this reader understands. */
     public static final int FORMAT_VERSION = 1;
 
+    public static final double MIN_SCALE = 1.25;
+    public static final double MAX_SCALE = 4.0;
+
+    /** An integer scale: each HR pixel belongs to one LR pixel's {@code s x s} tile. */
+    public static boolean isInteger(double scale) {
+        return scale == Math.rint(scale);
+    }
+
+    /**
+     * {@code round_half_up(hr / scale)} with the scale as the decimal it was written as (1.7, not
+     * the nearest double): {@code mnss_kit.ops.scale.lr_size_for}, 1280 at 1.7 is 753, 720 is 424.
+     */
+    public static int lrSizeFor(int hr, double scale) {
+        return new BigDecimal(hr).divide(new BigDecimal(Double.toString(scale)), 0, RoundingMode.HALF_UP).intValueExact();
+    }
+
     public final int formatVersion;
     public final String toolkitName;
     public final String toolkitVersion;
     public final Model model;
-    public final int scale;
+    /** 2, 3, 4, or a quality mode such as 1.5 (then {@code lrSize = round_half_up(hrSize / scale)} per axis). */
+    public final double scale;
     public final int[] lrSize;
     public final int[] hrSize;
     public final Json conventions;
@@ -83,12 +102,13 @@ public final class Manifest {
             this.subpixelY = subpixelY;
         }
 
-        static JitterEntry read(Json j, int scale) {
+        static JitterEntry read(Json j, double scale) {
             float[] offset = pair(j.get("offset")).asFloatArray();
             int[] sub = pair(j.get("subpixel")).asIntArray();
+            int tile = isInteger(scale) ? (int) scale : 1;  // a fractional scale has no tile: sub-pixel (0, 0)
             for (int v : sub) {
-                if (v < 0 || v >= scale) {
-                    throw new BundleException(j.path() + " sub-pixel " + v + " outside the " + scale + "x" + scale + " tile");
+                if (v < 0 || v >= tile) {
+                    throw new BundleException(j.path() + " sub-pixel " + v + " outside the " + tile + "x" + tile + " tile");
                 }
             }
             return new JitterEntry(j.get("index").asInt(), offset[0], offset[1], sub[0], sub[1]);
@@ -102,7 +122,7 @@ public final class Manifest {
         public final String units;
         public final List<JitterEntry> sequence;
 
-        Jitter(Json j, int scale) {
+        Jitter(Json j, double scale) {
             pattern = j.get("pattern").asString();
             period = j.get("period").asInt();
             units = j.get("units").asString();
@@ -167,14 +187,23 @@ public final class Manifest {
         toolkitName = toolkit.get("name").asString();
         toolkitVersion = toolkit.get("version").asString();
         model = new Model(root.get("model"));
-        scale = root.get("scale").asInt();
-        if (scale < 2) {
-            throw new BundleException(root.get("scale").path() + " must be at least 2, got " + scale);
+        scale = root.get("scale").asDouble();
+        if (!(scale >= MIN_SCALE && scale <= MAX_SCALE)) {
+            throw new BundleException(root.get("scale").path() + " must be in [" + MIN_SCALE + ", " + MAX_SCALE + "], got " + scale);
         }
         lrSize = size(root.get("lr_size"));
         hrSize = size(root.get("hr_size"));
-        if (hrSize[0] != lrSize[0] * scale || hrSize[1] != lrSize[1] * scale) {
-            throw new BundleException(root.path() + " hr_size is not lr_size times scale " + scale);
+        if (isInteger(scale)) {
+            int s = (int) scale;
+            if (hrSize[0] != lrSize[0] * s || hrSize[1] != lrSize[1] * s) {
+                throw new BundleException(root.path() + " hr_size is not lr_size times scale " + s);
+            }
+        } else {
+            for (int axis = 0; axis < 2; axis++) {
+                if (lrSize[axis] != lrSizeFor(hrSize[axis], scale)) {
+                    throw new BundleException(root.path() + " lr_size is not round_half_up(hr_size / " + scale + ") per axis");
+                }
+            }
         }
         conventions = root.get("conventions");
         jitter = new Jitter(root.get("jitter"), scale);

@@ -104,7 +104,7 @@ public final class Player implements AutoCloseable {
 
     /** The bilinear upscale of the last frame's LR colour at its jitter, {@code (H, W, 3)} codes. */
     public byte[] bilinear() {
-        return Bilinear.displayCodes(played().inputs.get(COLOUR_INPUT), manifest.scale, last.jitter);
+        return Bilinear.displayCodes(played().inputs.get(COLOUR_INPUT), manifest.hrSize[0], manifest.hrSize[1], last.jitter);
     }
 
     /** Debug view {@code view} of the last frame, {@code (H, W, 3)} codes at the output's size (nearest). */

@@ -14,7 +14,7 @@ public class ManifestTest {
     public void readsTheSections() {
         Manifest m = MiniBundle.manifest();
         assertEquals("mini", m.model.id);
-        assertEquals(2, m.scale);
+        assertEquals(2.0, m.scale, 0.0);
         assertArrayEquals(new int[] {8, 4}, m.hrSize);
         assertEquals(4, m.jitter.period);
         assertEquals(1, m.jitter.forFrame(5).subpixelX);
