@@ -145,7 +145,8 @@ def _taau_lr_evidence(p, c: Call):
 
 def _taau_lr_pack(p, c: Call):
     return {"npu_input": p.taau_lr_pack(c.read["color"], c.read["reprojected"], c.read["evidence"], c.u("u_scale"),
-                                        bool(c.u("u_reset")), c.u("u_max_weight"), c.u("u_q_scale"), c.u("u_q_zero_point"), c.profile)}
+                                        bool(c.u("u_reset")), c.u("u_max_weight"), c.u("u_q_scale"), c.u("u_q_zero_point"), c.profile,
+                                        c.uniforms.get("u_scale_input", 0.0))}
 
 
 def _taau_lr_accumulate(p, c: Call):

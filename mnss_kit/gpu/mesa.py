@@ -417,18 +417,19 @@ class MesaPasses:
 
     @_in_own_context
     def taau_lr_pack(self, color, reprojected, evidence, scale: int, reset: bool, max_weight: float, q_scale: float,
-                     q_zero_point: int, profile: str):
+                     q_zero_point: int, profile: str, scale_input: float = 0.0):
         h, w = color.shape[:2]
         ph, pw = h + h % 2, w + w % 2
-        nbytes = ph * pw * 8
+        channels = 9 if scale_input else 8
+        nbytes = ph * pw * channels
         words = -(-nbytes // 4)
         out = self.ctx.buffer(reserve=words * 4)
         res = {"color": self.texture(color, "rgba16f"), "evidence": self.texture(evidence, "rgba32f"), "npu_input": out,
                "reprojected": self._placeholder() if reset else self.texture(reprojected, "rgba16f")}
         uni = {"u_scale": scale, "u_reset": int(bool(reset)), "u_max_weight": float(max_weight), "u_word_count": words,
-               **P.quantize_uniforms(q_scale, q_zero_point, profile)}
+               "u_scale_input": float(np.float32(scale_input)), **P.quantize_uniforms(q_scale, q_zero_point, profile)}
         self.run("taau_lr_pack_pass", (words,), res, uni)
-        return np.frombuffer(out.read(), dtype=np.int8)[:nbytes].reshape(1, ph, pw, 8).copy()
+        return np.frombuffer(out.read(), dtype=np.int8)[:nbytes].reshape(1, ph, pw, channels).copy()
 
     @_in_own_context
     def taau_lr_accumulate(self, npu_output, color, reprojected, evidence, jitter, scale: int, q_scale: float, q_zero_point: int,

@@ -189,7 +189,7 @@ PASSES = {
             (_s("color", 0, "rgba16f"), _s("reprojected", 1, "rgba16f"), _s("evidence", 2, "rgba32f"),
              _b("npu_input", 0, "uint[]")),
             ("u_scale", "u_reset", "u_max_weight", "u_word_count", "u_q_scale", "u_q_reciprocal", "u_q_use_reciprocal", "u_q_rounding",
-             "u_q_zero_point"),
+             "u_q_zero_point", "u_scale_input"),
             exact=False,
         ),
         Pass(

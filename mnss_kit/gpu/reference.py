@@ -207,7 +207,7 @@ class ReferencePasses:
                                 float(np.float32(trust_spread_px)))
 
     def taau_lr_pack(self, color, reprojected, evidence, scale: int, reset: bool, max_weight: float, q_scale: float,
-                     q_zero_point: int, profile: str):
+                     q_zero_point: int, profile: str, scale_input: float = 0.0):
         """taau_lr_pack_pass -> the int8 NPU input (1,h',w',8), h' and w' even: ``ops.taau_lr.steering_features``
         quantized as ``ops.int8.quantize.quantize`` under ``profile``.  On a reset the history is zero (colour
         and weight), as the model's state after a cut; ``reprojected`` is not read."""
@@ -215,7 +215,7 @@ class ReferencePasses:
         hr_shape = np.asarray(reprojected).shape[:2]  # the HR size at any scale (u_scale 0: a fractional one)
         r = np.zeros((*hr_shape, 4), np.float32) if reset else to_half(reprojected)
         features = taau_lr.steering_features(sanitize_colour(to_half(color)), r[..., :3], r[..., 3:], e[..., 0:1], e[..., 1:2],
-                                             scale, max_weight)
+                                             scale, max_weight, float(np.float32(scale_input)))
         return quant.quantize(features, q_scale, q_zero_point, "int8", profile)[None]
 
     def taau_lr_accumulate(self, npu_output, color, reprojected, evidence, jitter, scale: int, q_scale: float, q_zero_point: int,

@@ -82,11 +82,12 @@ def block_mean(x: np.ndarray, lr_hw, scale) -> np.ndarray:
 
 
 def steering_features(colour: np.ndarray, history: np.ndarray, history_weight: np.ndarray, change: np.ndarray,
-                      spread: np.ndarray, scale, max_weight: float, scale_input: bool = False) -> np.ndarray:
+                      spread: np.ndarray, scale, max_weight: float, scale_input: float = 0.0) -> np.ndarray:
     """The steering net's input (h', w', 8), padded to an even size: the LR colour, the clamped YCoCg
     ``history``'s luma minus the colour's, the clamp distance and ``history_weight / max_weight``
     (each the mean over the pixel's HR block, ``block_mean``), the depth change and the spread
-    (capped); with ``scale_input`` a 9th channel, ``1 / scale``.  The HR size is the history's."""
+    (capped); with ``scale_input`` (its value, ``1 / scale``, or True for ``1 / scale``) a 9th channel
+    of that constant.  The HR size is the history's."""
     colour = np.asarray(colour, np.float32)
     lr_hw = colour.shape[:2]
     hr_size = (history.shape[1], history.shape[0])
@@ -98,7 +99,8 @@ def steering_features(colour: np.ndarray, history: np.ndarray, history_weight: n
     capped = np.minimum(spread, np.float32(SPREAD_CAP))
     parts = [colour, luma_gap, distance, weight, change, capped]
     if scale_input:
-        parts.append(np.full_like(capped, np.float32(1.0 / float(scale))))
+        value = 1.0 / float(scale) if scale_input is True else float(scale_input)
+        parts.append(np.full_like(capped, np.float32(value)))
     return pad_even(np.concatenate(parts, axis=-1).astype(np.float32))
 
 

@@ -13,7 +13,7 @@ from java_harness import run_gl_pipeline
 from mnss_kit.ops.scale import lr_size_for
 
 
-def _bundle(tmp_path, scale: str, lr_size, hr_size, golden_frames: int):
+def _bundle(tmp_path, scale: str, lr_size, hr_size, golden_frames: int, model_scale=None, scale_input: bool = False):
     import torch
 
     from mnss_kit.cli import main
@@ -25,7 +25,8 @@ def _bundle(tmp_path, scale: str, lr_size, hr_size, golden_frames: int):
     assert main(["render", "tiny_test", "--out", str(data), "--scale", scale, "--set", "frames=3", "--set", "hr_samples=1",
                  "--set", f"lr_size=[{lr_size[0]},{lr_size[1]}]", "--set", "jitter=halton", "--no-progress"]) == 0
     torch.manual_seed(0)
-    model = randomise_convs(build_model(NTAAULRConfig(scale=float(scale), width=8, mid_layers=1)), noise=0.5)
+    config = NTAAULRConfig(scale=model_scale or float(scale), width=8, mid_layers=1, scale_input=scale_input)
+    model = randomise_convs(build_model(config), noise=0.5)
     ckpt = checkpoint.save(tmp_path / "ntaau_lr.pt", model, {"jitter_pattern": "halton"})
     bundle = tmp_path / "bundle"
     assert main(["export", str(ckpt), "--out", str(bundle), "--resolution", f"{hr_size[0]}x{hr_size[1]}", "--scale", scale,
@@ -44,6 +45,18 @@ def test_a_1_5x_bundle_runs_exactly_on_mesa(gl_classes, java_core, tmp_path, cap
     with capsys.disabled():
         print(f"\nGL pipeline at x1.5, 96x54: {tensors} tensors, {values} values compared over 3 golden frames")
     assert tensors == 2 * 3 and values > 0
+
+
+def test_a_scale_input_bundle_packs_nine_channels_on_mesa(gl_classes, java_core, tmp_path, capsys):
+    """An x2 checkpoint with a scale input run at 1.5x: 9 int8 channels per pixel, a word holding
+    channels of two pixels."""
+    bundle, manifest = _bundle(tmp_path, "1.5", (64, 36), (96, 54), 2, model_scale=2, scale_input=True)
+    assert [t["shape"] for t in manifest["npu"]["tensors"] if t["name"] in manifest["npu"]["inputs"]] == [[1, 36, 64, 9]]
+    assert java_core.tool("verify", str(bundle)) == ""
+    tensors, values = run_gl_pipeline(gl_classes, bundle)
+    with capsys.disabled():
+        print(f"\nGL pipeline at x1.5 with a scale input: {tensors} tensors, {values} values compared over 2 golden frames")
+    assert tensors == 2 * 2 and values > 0
 
 
 @pytest.mark.slow

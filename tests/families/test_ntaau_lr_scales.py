@@ -277,3 +277,76 @@ def test_export_refuses_bad_scales_and_other_scales_for_integer_families(capsys,
     assert main(["export", "mnss_x2", "--out", str(tmp_path / "b"), "--scale", "1.5", "--resolution", "96x54"]) == 2
     err = capsys.readouterr().err.strip()
     assert "the mnss family runs at the scale it was built for only" in err and "\n" not in err
+
+
+# -- one checkpoint, several scales ---------------------------------------------------------------
+@pytest.fixture(scope="module")
+def scale_input_bundles(tmp_path_factory):
+    """One x2 checkpoint with ``scale_input`` (9 NPU input channels, the 9th 1/s) exported at 1.5x
+    and 1.7x, each with data rendered at its scale."""
+    from mnss_kit.cli import main
+    from mnss_kit.model import checkpoint
+
+    root = tmp_path_factory.mktemp("ntaau_lr_scale_input")
+    torch.manual_seed(0)
+    model = randomise_convs(build_model(NTAAULRConfig(scale=2, width=8, mid_layers=1, scale_input=True)), noise=0.5)
+    ckpt = checkpoint.save(root / "ntaau_lr_si.pt", model, {"jitter_pattern": "halton"})
+    out = {}
+    for s, (_, (w, h), (hw, hh)) in CHAINS.items():
+        data = root / f"data{s}"
+        assert main(["render", "tiny_test", "--out", str(data), "--scale", s, "--set", "frames=3", "--set", "hr_samples=1",
+                     "--set", f"lr_size=[{w},{h}]", "--set", "jitter=halton", "--no-progress"]) == 0
+        bundle = root / f"bundle{s}"
+        assert main(["export", str(ckpt), "--out", str(bundle), "--data", str(data), "--resolution", f"{hw}x{hh}",
+                     "--scale", s, "--golden-frames", "3", "--no-progress"]) == 0
+        out[s] = {"bundle": bundle, "data": data, "lr_size": (w, h), "scale": float(s)}
+    return ckpt, out
+
+
+def test_one_scale_input_checkpoint_exports_at_several_scales(scale_input_bundles):
+    """The 9-channel pack: the numpy GPU stage bit-exact to the golden frames, the bundle's shaders on
+    Mesa within the golden tolerance on frame 0; the 9th channel is 1/s of each bundle; the int8
+    bundle close to the torch model run at that scale (frame key ``scale``)."""
+    from mnss_kit.cli import main
+    from mnss_kit.dataset.format import read_meta
+    from mnss_kit.emulate.frame_loop import Emulator
+    from mnss_kit.emulate.sequence import sequence_frames
+    from mnss_kit.export.golden import TOLERANCES
+    from mnss_kit.export.reader import open_bundle
+    from mnss_kit.model import checkpoint
+    from mnss_kit.ops.int8 import quantize as quant
+
+    ckpt, bundles = scale_input_bundles
+    for s, b in bundles.items():
+        assert main(["bundle", "check", str(b["bundle"])]) == 0
+        reader = open_bundle(b["bundle"])
+        w, h = b["lr_size"]
+        for backend in ("numpy", "mesa"):
+            emulator = Emulator(b["bundle"], gpu_backend=backend)
+            for i in range(3 if backend == "numpy" else 1):
+                want, result = reader.golden(i), emulator.run_frame(reader.golden_inputs(i), keep_all=True)
+                got = result.tensors["npu_input"]
+                assert got.shape == (1, h + h % 2, w + w % 2, 9)
+                if backend == "mesa":
+                    assert np.abs(got.astype(int) - want["npu_input"].astype(int)).max() <= TOLERANCES["npu_input_lsb"]
+                    continue
+                assert np.array_equal(got, want["npu_input"]) and np.array_equal(result.display, want["display"])
+        boundary = next(x for x in reader.manifest["boundary"] if x["direction"] == "gpu->npu")
+        ninth = quant.dequantize(reader.golden(1)["npu_input"][..., 8], boundary["scale"], boundary["zero_point"])
+        np.testing.assert_allclose(ninth, 1.0 / b["scale"], atol=boundary["scale"])
+        model, _ = checkpoint.load(ckpt)
+        model.eval()
+        emulator = Emulator(b["bundle"])
+        seq = next(p for p in sorted(b["data"].iterdir()) if p.is_dir() and not p.name.startswith("."))
+        state, margins = None, []
+        for _, frame, _ in sequence_frames(seq, read_meta(seq), 3, emulator.runner.inputs):
+            display = emulator.run_frame(frame).display.astype(np.float32) / 255
+            batch = {k: torch.from_numpy(np.ascontiguousarray(np.moveaxis(frame[k], -1, 0)))[None] for k in ("color", "depth", "motion")}
+            batch.update(jitter=torch.from_numpy(np.asarray(frame["jitter"], np.float32))[None],
+                         reset=torch.tensor([float(frame["reset"])]), scale=torch.tensor([b["scale"]]))
+            with torch.no_grad():
+                out, aux, state = model(batch, state)
+            mse = lambda a, c: float(((a - c) ** 2).mean())  # noqa: E731
+            margins.append(10 * np.log10(mse(_hwc(out), _hwc(aux["taau"])) / mse(_hwc(out), display)))
+        print(f"x{s}: int8 bundle closer to the model than the model to TAAU by {np.round(margins, 1)} dB")
+        assert min(margins) > 6

@@ -19,7 +19,7 @@ import numpy as np
 from ...gpu import passes as P
 from ...gpu.plan import const, pass_entries, per_frame, quantize_uniforms, step
 from ..taau import TAAUParams
-from .config import FEATURE_CHANNELS as FEATURES, STEER_CHANNELS, NTAAULRConfig
+from .config import STEER_CHANNELS, NTAAULRConfig
 
 PASSES_USED = ("taau_reproject_pass", "taau_lr_evidence_pass", "taau_lr_pack_pass", "taau_lr_accumulate_pass")
 FILTER_PASS = "taau_lr_filter_pass"
@@ -48,11 +48,6 @@ def bundle_gpu_plan(config: NTAAULRConfig, state_dict: dict, lr_size: tuple[int,
                     hr_size=None) -> dict:
     """The family record's ``gpu_plan``: passes, weight blocks (none), resources and schedule; ``hr_size``
     ``(W, H)`` at a fractional scale (else ``lr_size`` times the scale)."""
-    if config.scale_input:
-        from ...errors import UserError
-
-        raise UserError("an ntaau_lr model with scale_input: true has 9 NPU input channels, which the bundle's pack pass "
-                        "does not write yet (export a model with scale_input: false)")
     return {"passes": pass_entries(passes_used(config)), "weights": [], "resources": resources(config, lr_size, hr_size),
             "schedule": schedule(config, lr_size, npu, profile, hr_size)}
 
@@ -93,7 +88,8 @@ def resources(config: NTAAULRConfig, lr_size: tuple[int, int], hr_size=None) -> 
         _tex("history", hr, P.HISTORY_FORMAT, "state", "the previous blend (rgb) and its accumulated weight (a)", 4),
         _tex("reprojected", hr, "rgba16f", "intermediate", "the history warped to this frame (YCoCg) and its weight", 4),
         _tex("evidence", lr, "rgba32f", "intermediate", "depth change, motion spread, trust at LR", 4),
-        _buf("npu_input", tensor_words(lr_size, FEATURES), f"int8 NHWC (1, h', w', {FEATURES}) NPU input at the LR size rounded "
+        _buf("npu_input", tensor_words(lr_size, config.npu_input_channels()), f"int8 NHWC (1, h', w', "
+             f"{config.npu_input_channels()}) NPU input at the LR size rounded "
              "up to even, 4 bytes per word, little-endian"),
         _buf("npu_output", tensor_words(lr_size, STEER_CHANNELS),
              f"int8 NHWC (1, h', w', {STEER_CHANNELS}) raw steering at LR from the NPU, 4 bytes per word, little-endian"),
@@ -110,7 +106,7 @@ def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile
     if fractional:
         a["hr_size"] = hr_size_of(config, lr_size, hr_size)
     reproject_uniforms = {"u_reset": per_frame("reset"), "u_blur_penalty": const(params.blur_penalty)}
-    words = tensor_words(lr_size, FEATURES)
+    words = tensor_words(lr_size, config.npu_input_channels())
     out_scale, out_zp = npu["output_q"]
     dequantize = {"u_q_scale": const(float(np.float32(out_scale))), "u_q_zero_point": const(int(out_zp))}
     steps = [
@@ -128,6 +124,8 @@ def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile
              {"color": "color", "reprojected": "reprojected", "evidence": "evidence", "npu_input": "npu_input"},
              {"u_scale": const(s), "u_reset": per_frame("reset"), "u_max_weight": const(params.max_weight),
               "u_word_count": const(words),
+              # a scale input: the 9th channel's value, 1 / the bundle's scale (float32); 0: 8 channels
+              "u_scale_input": const(float(np.float32(1.0 / float(config.scale))) if config.scale_input else 0.0),
               **quantize_uniforms(*npu["input_q"], profile)}, words=words, **a),
         {"kind": "npu", "label": "steering net", "stage": "steer", "model": npu["model"],
          "inputs": {npu["input"]: "npu_input"}, "outputs": {npu["output"]: "npu_output"}},

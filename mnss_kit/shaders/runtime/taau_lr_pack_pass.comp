@@ -9,7 +9,8 @@
 //                                    history's luma minus the colour's, the clamp distance, the
 //                                    history weight / u_max_weight (each the mean over the s x s HR
 //                                    block; u_scale 0: any scale, the HR texels nearest the LR one),
-//                                    the depth change, the motion spread (at most 4)
+//                                    the depth change, the motion spread (at most 4); with
+//                                    u_scale_input != 0 a 9th channel, that value (1 / scale)
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -30,6 +31,7 @@ uniform float u_q_reciprocal;
 uniform int u_q_use_reciprocal;
 uniform int u_q_rounding;
 uniform int u_q_zero_point;
+uniform float u_scale_input;  // 0: the 8 features; else a 9th channel of this value (1 / scale)
 
 #include "quant.glsl"
 #include "taau_lr.glsl"
@@ -86,6 +88,15 @@ vec4 features(ivec2 p, int half_index) {
     return vec4(means.y, means.z / u_max_weight, e.r, min(e.g, SPREAD_CAP));
 }
 
+// Channel `c` (0-8) of LR texel `p`: a model with a scale input (u_scale_input != 0) has a 9th
+// channel, the constant 1 / scale (ops.taau_lr.steering_features).
+float feature_at(ivec2 p, int c) {
+    if (c == CHANNELS) {
+        return u_scale_input;
+    }
+    return features(p, c / 4)[c % 4];
+}
+
 void main() {
     int i = int(gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x + gl_GlobalInvocationID.x);
     if (i >= u_word_count) {
@@ -94,6 +105,21 @@ void main() {
     QuantParams q = QuantParams(u_q_scale, u_q_reciprocal, u_q_use_reciprocal != 0, u_q_rounding, u_q_zero_point);
     ivec2 lr_size = textureSize(color, 0);
     int padded_width = lr_size.x + lr_size.x % 2;
+    if (u_scale_input != 0.0) {  // 9 channels: a word may hold two pixels' channels; bytes past the tensor stay 0
+        int channels = CHANNELS + 1;
+        int total = padded_width * (lr_size.y + lr_size.y % 2) * channels;
+        uint bits = 0u;
+        for (int k = 0; k < 4; k++) {
+            int b = i * 4 + k;
+            if (b < total) {
+                int at = b / channels;
+                ivec2 p = min(ivec2(at % padded_width, at / padded_width), lr_size - 1);
+                bits |= word_of_int8(quantize_int8(feature_at(p, b % channels), q), k);
+            }
+        }
+        npu_input[i] = bits;
+        return;
+    }
     int pixel = i / (CHANNELS / 4);  // CHANNELS is a multiple of 4: a word holds channels of one pixel
     ivec2 p = min(ivec2(pixel % padded_width, pixel / padded_width), lr_size - 1);
     vec4 v = features(p, i % (CHANNELS / 4));
