@@ -99,14 +99,15 @@ def models_by_scale(request: BenchRequest) -> dict[int, list[str]]:
         if scale != only and request.models:
             raise UserError(f"{names[0]} is x{scale} but the bench is x{only} (leave out --scale and --data to bench every scale)")
         if scale != only:
-            log.info("bench at x%d only: %s (x%d) left out", only, ", ".join(names), scale)
+            log.info("bench at x%s only: %s (x%s) left out", only, ", ".join(names), scale)
     return {only: grouped.get(only, [])}
 
 
-def scale_overrides(scale: int) -> list[str]:
-    """Render overrides that make a built-in x2 data config ``scale``: Halton jitter beyond x3
-    (the MNSS pattern exists for x2 and x3)."""
-    return [] if scale == 2 else [f"scale={scale}", *(["jitter=halton"] if scale > 3 else [])]
+def scale_overrides(scale: int | float) -> list[str]:
+    """Render overrides that make a built-in x2 data config ``scale``: Halton jitter beyond x3 and at
+    a fractional scale (the MNSS pattern exists for x2 and x3)."""
+    halton = scale > 3 or not float(scale).is_integer()
+    return [] if scale == 2 else [f"scale={scale}", *(["jitter=halton"] if halton else [])]
 
 
 def held_out_config(quick: bool, scale: int) -> tuple[str, list[str]]:
@@ -238,7 +239,8 @@ def _calibration_data(root: Path, scale: int, progress: bool) -> Path:
     from ..quantize.api import render_calibration_data
 
     out = root / ("calibration" if scale == 2 else f"calibration_x{scale}")
-    return render_calibration_data(out, progress, with_reference=False, overrides=scale_overrides(scale))
+    # scale= too: render_calibration_data appends its own scale override after ours
+    return render_calibration_data(out, progress, with_reference=False, overrides=scale_overrides(scale), scale=scale)
 
 
 def baseline_records(data: Path, settings: Settings) -> list[dict]:
@@ -313,7 +315,7 @@ def at_size(art, module, data: Path, model=None):
     from ..quantize.tflite_writer import to_tflite
 
     meta = fmt.read_meta(fmt.find_sequences(data)[0])
-    hr_size = (meta.lr_size[0] * meta.scale, meta.lr_size[1] * meta.scale)
+    hr_size = tuple(meta.hr_size)  # lr * s at an integer scale; the data's display size at a fractional one
     graph = retarget(art.graph, module, hr_size, npu_input_shapes(model, hr_size) if model is not None else None)
     return SimpleNamespace(graph=graph, tflite=to_tflite(graph), report=art.report)
 
@@ -355,9 +357,8 @@ def export_at_size(name: str, data: Path, calibration: Path, bundle: Path) -> Pa
     from ..export.pipeline import ExportRequest, export
 
     meta = fmt.read_meta(fmt.find_sequences(data)[0])
-    w, h = meta.lr_size
-    export(ExportRequest(model=name, out=bundle, resolution=f"{w * meta.scale}x{h * meta.scale}", data=calibration,
-                         overwrite=True, progress=False))
+    w, h = meta.hr_size  # the data's display size (at a fractional scale not always round(lr * s))
+    export(ExportRequest(model=name, out=bundle, resolution=f"{w}x{h}", data=calibration, overwrite=True, progress=False))
     return bundle
 
 
