@@ -10,6 +10,10 @@ centre (no jitter) and Halton, ``train_rooms_x2`` and ``train_still_x2`` (docs/t
 the shipped models*; docs/results.md).  ``mnss_x2.pt``: ``mnss_kit/configs/models/mnss_x2.yaml`` trained
 by ``mnss-kit train mnss_x2`` on ``mnss-kit render train_x2`` (the record holds the data
 fingerprint and training summary), the paper's design.
+``ntaau_lr_x2.pt`` and ``ntaau_lr_x2_small.pt``: the configs of the same names, an encoder-decoder at
+LR that steers TAAU from depth and motion evidence with a spatial fallback, trained by ``mnss-kit
+train ntaau_lr_x2`` (and ``ntaau_lr_x2_small``) on ``train_engine_x2`` and its engine variant, half of
+the windows against the native TAA reference (docs/results_engine.md, docs/studies/ntaau_lr.md).
 ``fusesr_x2_hybrid.pt`` and ``fusesr_x4_l.pt``: the configs of the same names, trained on
 ``train_x2`` and ``train_x4`` (docs/training.md, *Reproducing the shipped models*; docs/fusesr_shipped.md).
 """
