@@ -27,6 +27,7 @@ from torch import nn
 
 from ..metrics.image import ssim
 from .layers import upsample_motion, warp_bilinear
+from .taau import hr_motion_of
 
 # Band-pass and gradient differences of flat regions are rounding noise around zero; a plain L1 turns
 # that noise into full-size random gradient signs, the Charbonnier penalty (as in LapSRN) does not.
@@ -76,8 +77,15 @@ def pyramid_loss(output: torch.Tensor, target: torch.Tensor, levels: int = 3) ->
 def flicker_term(error: torch.Tensor, prev_error: torch.Tensor, motion: torch.Tensor, scale: int,
                  reset: torch.Tensor | None) -> torch.Tensor:
     """Change of the error ``e`` (N, 3, H, W) from the previous frame's, warped by the LR ``motion``
-    (N, 2, h, w); frames with ``reset`` (N,) set have no previous frame."""
-    change = error - warp_bilinear(prev_error, upsample_motion(motion, scale))
+    (N, 2, h, w); frames with ``reset`` (N,) set have no previous frame.  The motion is brought to the
+    error's size, so a batch at another scale than the loss's (training on several scales) works."""
+    h, w = motion.shape[-2:]
+    hr_size = tuple(error.shape[-2:])
+    if hr_size == (h * scale, w * scale):
+        hr_motion = upsample_motion(motion, scale)
+    else:
+        hr_motion = hr_motion_of(motion, hr_size[1] / w, (hr_size[1], hr_size[0]))
+    change = error - warp_bilinear(prev_error, hr_motion)
     if reset is not None:
         change = change * (reset <= 0.5).to(change.dtype).view(-1, 1, 1, 1)
     return charbonnier(change)
