@@ -41,8 +41,8 @@ def run(args: argparse.Namespace) -> int:
 
     from .fileio import check_output
 
-    if args.minutes <= 0:
-        raise UserError("--minutes must be positive")
+    if not 0 < args.minutes < float("inf"):  # nan and inf too: they failed in the train step, minutes later
+        raise UserError(f"--minutes must be a positive number of minutes, got {args.minutes:g}")
     out = check_output(args.out, "into")
     out.mkdir(parents=True, exist_ok=True)
     steps = Steps(out, progress=not args.no_progress)

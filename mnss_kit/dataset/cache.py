@@ -205,6 +205,10 @@ def prepare_caches(
     with _build_lock(cache_root):  # another process may have built them while this one waited
         todo = [(c, r, b) for c in caches for r, b in c.missing(buffers)]
         if todo:
+            from .check import require_clean  # what data check calls an error is not cached (nor trained on)
+
+            for seq_dir in dict.fromkeys(c.seq_dir for c, _, _ in todo):
+                require_clean(seq_dir)
             _build(todo, cache_root, progress)
     return caches
 

@@ -45,7 +45,7 @@ from torch.utils.data import Dataset
 from ..errors import UserError
 from ..ops import scale as scales
 from .cache import SequenceCache, dataset_fingerprint, default_cache_dir, prepare_caches, require_finite
-from .format import REQUIRED_BUFFERS, SequenceMeta, buffer_path, find_sequences, read_buffer, read_meta
+from .format import META_FILE, REQUIRED_BUFFERS, SequenceMeta, buffer_path, find_sequences, read_buffer, read_meta
 
 log = logging.getLogger(__name__)
 
@@ -175,6 +175,8 @@ def open_sequences(
     base = {**BASE_KEYS, "reference": ("hr", reference)}
     wanted = list(dict.fromkeys([*base.values(), *extra_keys.values()]))
     for seq_dir, meta in zip(seq_dirs, metas):
+        if not meta.frames:  # data check's error: training would skip the sequence without a word
+            raise UserError(f"data check: {Path(seq_dir) / META_FILE}: no frames")
         for index, frame in enumerate(meta.frames):
             if frame.index != index:
                 raise UserError(f"{seq_dir}: frame {index} in meta.json has index {frame.index}; frames must be 0, 1, 2, ... in order")

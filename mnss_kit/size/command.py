@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
 
     request = SizeRequest(data=args.data, targets=targets, out=args.out, test=args.test, held_out=args.held_out,
                           ladder=args.ladder, overrides=args.overrides, steps=args.steps, minutes=args.minutes, budget=budget,
-                          output_size=parse_resolution(args.output_size), max_frames=args.max_frames,
+                          output_size=parse_resolution(args.output_size, "--output-size"), max_frames=args.max_frames,
                           progress=not args.no_progress)
     doc = run_size(request)
     table = markdown(doc)

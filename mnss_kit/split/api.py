@@ -11,18 +11,18 @@ DEFAULT_RESOLUTION_TEXT = f"{DEFAULT_RESOLUTION[0]}x{DEFAULT_RESOLUTION[1]}"
 MAX_OUTPUT_SIDE = 8192
 
 
-def parse_resolution(text: str) -> tuple[int, int]:
-    """``"1280x720"`` -> ``(1280, 720)``."""
+def parse_resolution(text: str, option: str = "--resolution") -> tuple[int, int]:
+    """``"1280x720"`` -> ``(1280, 720)``; ``option`` is the flag the errors name."""
     from ..errors import UserError
 
     parts = text.lower().split("x")
     if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
-        raise UserError(f"--resolution must look like 1280x720, got '{text}'")
+        raise UserError(f"{option} must look like 1280x720, got '{text}'")
     w, h = (int(p) for p in parts)
     if w < 1 or h < 1:
-        raise UserError(f"--resolution must be positive, got '{text}'")
+        raise UserError(f"{option} must be positive, got '{text}'")
     if max(w, h) > MAX_OUTPUT_SIDE:
-        raise UserError(f"--resolution {text}: at most {MAX_OUTPUT_SIDE} pixels a side (8K UHD is 7680x4320); "
+        raise UserError(f"{option} {text}: at most {MAX_OUTPUT_SIDE} pixels a side (8K UHD is 7680x4320); "
                         "no device profile's GPU holds a larger frame")
     return w, h
 
