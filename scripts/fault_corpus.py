@@ -755,10 +755,12 @@ def misc_cases() -> list[Case]:
 
 
 def _nss(s: Path, **kw) -> Path:
-    sys.path.insert(0, str(REPO / "tests" / "dataset"))
-    from capture_helpers import write_nss_capture  # noqa: PLC0415
+    import importlib.util  # the tests' capture writer, loaded by path: tests/ is no package
 
-    write_nss_capture(s / "cap", **kw)
+    spec = importlib.util.spec_from_file_location("capture_helpers", REPO / "tests" / "dataset" / "capture_helpers.py")
+    helpers = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(helpers)
+    helpers.write_nss_capture(s / "cap", **kw)
     return s / "cap"
 
 
