@@ -148,3 +148,15 @@ def per_frame(key: str) -> dict:
 def quantize_uniforms(scale: float, zero_point: int, profile: str) -> dict:
     """Schedule uniforms of ``passes.quantize_uniforms``, as constants."""
     return {k: const(v) for k, v in P.quantize_uniforms(scale, zero_point, profile).items()}
+
+
+def texture(name: str, size, fmt: str, role: str, note: str, channels: int) -> dict:
+    """A 2D texture entry of a bundle's resources (``size`` is ``[width, height]``)."""
+    return {"name": name, "kind": "texture2d", "size": size, "format": fmt, "channels": channels, "role": role,
+            "description": note}
+
+
+def boundary_buffer(name: str, words: int, note: str) -> dict:
+    """A buffer of ``words`` 32-bit words that crosses the GPU<->NPU boundary."""
+    return {"name": name, "kind": "buffer", "bytes": words * 4, "words": words, "element": "uint", "role": "boundary",
+            "description": note}

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...gpu import passes as P
-from ...gpu.plan import const, pass_entries, per_frame, quantize_uniforms, step, word_count
+from ...gpu.plan import const, pass_entries, per_frame, quantize_uniforms, step, word_count, texture, boundary_buffer
 from ..taau import TAAUParams
 from .config import NTAAUConfig
 
@@ -35,30 +35,21 @@ def input_words(config: NTAAUConfig, lr_size: tuple[int, int]) -> int:
     return -(-lr_size[0] * lr_size[1] * config.npu_input_channels() // 4)
 
 
-def _tex(name, size, fmt, role, note, channels):
-    return {"name": name, "kind": "texture2d", "size": size, "format": fmt, "channels": channels, "role": role,
-            "description": note}
-
-
-def _buf(name, words, note):
-    return {"name": name, "kind": "buffer", "bytes": words * 4, "words": words, "element": "uint", "role": "boundary",
-            "description": note}
-
 
 def resources(config: NTAAUConfig, lr_size: tuple[int, int]) -> list[dict]:
     """Every texture and buffer a phone keeps for the schedule.  Sizes are ``[width, height]``."""
     w, h = lr_size
     hr, lr = [w * config.scale, h * config.scale], [w, h]
     return [
-        _tex("color", lr, P.INPUT_FORMATS["color"], "input", "jittered LR colour, display values in [0, 1]", 3),
-        _tex("motion", lr, P.INPUT_FORMATS["motion"], "input", "LR motion in LR pixels, pointing to the previous frame", 2),
-        _tex("history", hr, P.HISTORY_FORMAT, "state", "the previous blend before the correction (rgb) and its accumulated weight (a)", 4),
-        _tex("reprojected", hr, "rgba16f", "intermediate", "the history warped to this frame (YCoCg) and its weight", 4),
-        _buf("npu_input", input_words(config, lr_size), "int8 NHWC (1, h, w, 3 + 5 s^2) NPU input at LR, 4 bytes per word, "
+        texture("color", lr, P.INPUT_FORMATS["color"], "input", "jittered LR colour, display values in [0, 1]", 3),
+        texture("motion", lr, P.INPUT_FORMATS["motion"], "input", "LR motion in LR pixels, pointing to the previous frame", 2),
+        texture("history", hr, P.HISTORY_FORMAT, "state", "the previous blend before the correction (rgb) and its accumulated weight (a)", 4),
+        texture("reprojected", hr, "rgba16f", "intermediate", "the history warped to this frame (YCoCg) and its weight", 4),
+        boundary_buffer("npu_input", input_words(config, lr_size), "int8 NHWC (1, h, w, 3 + 5 s^2) NPU input at LR, 4 bytes per word, "
              "little-endian"),
-        _buf("npu_output", word_count(lr_size, config.scale, config.steer_channels()),
+        boundary_buffer("npu_output", word_count(lr_size, config.scale, config.steer_channels()),
              f"int8 NHWC (1, H, W, {config.steer_channels()}) raw steering from the NPU, 4 bytes per word, little-endian"),
-        _tex("display", hr, P.DISPLAY_FORMAT, "output", "the frame to show (8-bit codes)", 3),
+        texture("display", hr, P.DISPLAY_FORMAT, "output", "the frame to show (8-bit codes)", 3),
     ]
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...gpu import passes as P
-from ...gpu.plan import const, pass_entries, per_frame, quantize_uniforms, step
+from ...gpu.plan import const, pass_entries, per_frame, quantize_uniforms, step, texture, boundary_buffer
 from ..taau import TAAUParams
 from .config import STEER_CHANNELS, NTAAULRConfig
 
@@ -64,36 +64,27 @@ def tensor_words(lr_size: tuple[int, int], channels: int) -> int:
     return -(-w * h * channels // 4)
 
 
-def _tex(name, size, fmt, role, note, channels):
-    return {"name": name, "kind": "texture2d", "size": size, "format": fmt, "channels": channels, "role": role,
-            "description": note}
-
-
-def _buf(name, words, note):
-    return {"name": name, "kind": "buffer", "bytes": words * 4, "words": words, "element": "uint", "role": "boundary",
-            "description": note}
-
 
 def resources(config: NTAAULRConfig, lr_size: tuple[int, int], hr_size=None) -> list[dict]:
     """Every texture and buffer a phone keeps for the schedule.  Sizes are ``[width, height]``."""
     w, h = lr_size
     hr, lr = list(hr_size_of(config, lr_size, hr_size)), [w, h]
     return [
-        _tex("color", lr, P.INPUT_FORMATS["color"], "input", "jittered LR colour, display values in [0, 1]", 3),
-        _tex("depth", lr, P.INPUT_FORMATS["depth"], "input", "LR depth, linear in [0, 1]; swaps with prev_depth at the end of "
+        texture("color", lr, P.INPUT_FORMATS["color"], "input", "jittered LR colour, display values in [0, 1]", 3),
+        texture("depth", lr, P.INPUT_FORMATS["depth"], "input", "LR depth, linear in [0, 1]; swaps with prev_depth at the end of "
              "the frame", 1),
-        _tex("motion", lr, P.INPUT_FORMATS["motion"], "input", "LR motion in LR pixels, pointing to the previous frame", 2),
-        _tex("prev_depth", lr, P.INPUT_FORMATS["depth"], "state", "the previous frame's depth (the depth texture of the last "
+        texture("motion", lr, P.INPUT_FORMATS["motion"], "input", "LR motion in LR pixels, pointing to the previous frame", 2),
+        texture("prev_depth", lr, P.INPUT_FORMATS["depth"], "state", "the previous frame's depth (the depth texture of the last "
              "frame)", 1),
-        _tex("history", hr, P.HISTORY_FORMAT, "state", "the previous blend (rgb) and its accumulated weight (a)", 4),
-        _tex("reprojected", hr, "rgba16f", "intermediate", "the history warped to this frame (YCoCg) and its weight", 4),
-        _tex("evidence", lr, "rgba32f", "intermediate", "depth change, motion spread, trust at LR", 4),
-        _buf("npu_input", tensor_words(lr_size, config.npu_input_channels()), f"int8 NHWC (1, h', w', "
+        texture("history", hr, P.HISTORY_FORMAT, "state", "the previous blend (rgb) and its accumulated weight (a)", 4),
+        texture("reprojected", hr, "rgba16f", "intermediate", "the history warped to this frame (YCoCg) and its weight", 4),
+        texture("evidence", lr, "rgba32f", "intermediate", "depth change, motion spread, trust at LR", 4),
+        boundary_buffer("npu_input", tensor_words(lr_size, config.npu_input_channels()), f"int8 NHWC (1, h', w', "
              f"{config.npu_input_channels()}) NPU input at the LR size rounded "
              "up to even, 4 bytes per word, little-endian"),
-        _buf("npu_output", tensor_words(lr_size, STEER_CHANNELS),
+        boundary_buffer("npu_output", tensor_words(lr_size, STEER_CHANNELS),
              f"int8 NHWC (1, h', w', {STEER_CHANNELS}) raw steering at LR from the NPU, 4 bytes per word, little-endian"),
-        _tex("display", hr, P.DISPLAY_FORMAT, "output", "the frame to show (8-bit codes)", 3),
+        texture("display", hr, P.DISPLAY_FORMAT, "output", "the frame to show (8-bit codes)", 3),
     ]
 
 
