@@ -19,6 +19,8 @@ from mnss_kit.model.ntaau_lr import net
 from mnss_kit.model.ntaau_lr.config import NTAAULRConfig
 from mnss_kit.ops import taau as ops_taau
 from mnss_kit.ops import taau_lr
+from ntaau_lr_checks import assert_close, assert_golden_frames, hwc, npu_differences
+
 
 ATOL = 1e-5  # torch and numpy, float32 in a different order
 
@@ -33,16 +35,13 @@ def _frames(n: int, h: int = 18, w: int = 32, scale: int = 2, seed: int = 3):
     return frames
 
 
-def _hwc(x: torch.Tensor) -> np.ndarray:
-    return x[0].permute(1, 2, 0).detach().numpy().astype(np.float32)
-
 
 def _nchw(x: np.ndarray) -> torch.Tensor:
     return torch.from_numpy(np.ascontiguousarray(np.moveaxis(np.asarray(x, np.float32), -1, 0)))[None]
 
 
 def _close(got: torch.Tensor, want: np.ndarray, atol: float = ATOL) -> None:
-    np.testing.assert_allclose(_hwc(got), want, atol=atol, rtol=0)
+    assert_close(got, want, atol)
 
 
 @pytest.mark.parametrize("scale", [2, 3])
@@ -62,8 +61,8 @@ def test_evidence_matches_the_numpy_reference(size):
     previous = 0.2 + 0.6 * torch.rand(1, 1, *size, generator=torch.Generator().manual_seed(5))
     config = NTAAULRConfig()
     change, spread = net.depth_change(f["depth"], previous, f["motion"]), net.motion_spread(f["motion"])
-    want_change = taau_lr.depth_change(_hwc(f["depth"]), _hwc(previous), _hwc(f["motion"]))
-    want_spread = taau_lr.motion_spread(_hwc(f["motion"]))
+    want_change = taau_lr.depth_change(hwc(f["depth"]), hwc(previous), hwc(f["motion"]))
+    want_spread = taau_lr.motion_spread(hwc(f["motion"]))
     _close(change, want_change)
     _close(spread, want_spread)
     _close(net.trust(change, spread, config), taau_lr.trust(want_change, want_spread, config.trust_depth, config.trust_spread_px))
@@ -81,9 +80,9 @@ def test_the_gather_matches_the_numpy_reference(size):
         state = {k: v for k, v in state.items() if k != "depth"}
         inputs, trust_lr, features = model.lr_gather(frame["color"], frame["depth"], first["depth"], frame["jitter"],
                                                      frame["motion"], torch.zeros(1), state)
-    change = taau_lr.depth_change(_hwc(frame["depth"]), _hwc(first["depth"]), _hwc(frame["motion"]))
-    spread = taau_lr.motion_spread(_hwc(frame["motion"]))
-    want = taau_lr.steering_features(_hwc(frame["color"]), _hwc(inputs.history), _hwc(inputs.history_weight), change, spread,
+    change = taau_lr.depth_change(hwc(frame["depth"]), hwc(first["depth"]), hwc(frame["motion"]))
+    spread = taau_lr.motion_spread(hwc(frame["motion"]))
+    want = taau_lr.steering_features(hwc(frame["color"]), hwc(inputs.history), hwc(inputs.history_weight), change, spread,
                                      2, model.params.max_weight)
     assert want.shape == (size[0] + size[0] % 2, size[1] + size[1] % 2, 8)
     _close(features, want)
@@ -100,7 +99,7 @@ def test_the_steering_upsample_and_the_fallback_blend_match_the_numpy_reference(
     g = torch.Generator().manual_seed(scale)
     raw, trust_lr = 3.0 * torch.randn(1, 6, h, w, generator=g), torch.rand(1, 1, h, w, generator=g)
     steer = net.steer_from_lr(raw, trust_lr, config)
-    want = taau_lr.steer_from_lr(_hwc(raw), _hwc(trust_lr), scale, config.box_bound, config.filter_bound)
+    want = taau_lr.steer_from_lr(hwc(raw), hwc(trust_lr), scale, config.box_bound, config.filter_bound)
     for name in ("history_gain", "sample_gain", "box_widen", "fallback", "filter_axis", "filter_diagonal"):
         _close(getattr(steer, name), getattr(want, name))
     assert (want.fallback > 0.5).any() and (want.fallback == 0.0).any()
@@ -111,7 +110,7 @@ def test_the_steering_upsample_and_the_fallback_blend_match_the_numpy_reference(
     inputs = taau.taau_inputs(colour, torch.full((1, 2), 0.25), torch.randn(1, 2, h, w, generator=g), torch.zeros(1),
                               history, scale, params)
     out, state = taau.blend(inputs, params, steer)
-    terms = [_hwc(getattr(inputs, k)) for k in ("samples", "sample_weight", "spatial", "lo", "hi", "history", "history_weight")]
+    terms = [hwc(getattr(inputs, k)) for k in ("samples", "sample_weight", "spatial", "lo", "hi", "history", "history_weight")]
     want_out, want_history, want_weight = ops_taau.blend(*terms, params.prior_weight, params.max_weight, want)
     _close(out, want_out, 1e-4)
     _close(state["history"], want_history, 1e-4)
@@ -186,41 +185,14 @@ def test_the_emulator_reproduces_the_golden_frames(bundle, gpu_backend):
     """The numpy GPU stage and LiteRT's reference kernels (the golden frames' own) bit for bit over
     every golden frame; the bundle's shaders on Mesa within the golden tolerance on frame 0 (later
     frames read a history that GPU made)."""
-    from mnss_kit.emulate.frame_loop import Emulator
-    from mnss_kit.export.golden import TOLERANCES
-    from mnss_kit.export.reader import open_bundle
-
-    b = open_bundle(bundle["bundle"])
-    emulator = Emulator(bundle["bundle"], gpu_backend=gpu_backend)
-    frames = GOLDEN_FRAMES if gpu_backend == "numpy" else 1
-    for i in range(frames):
-        want, result = b.golden(i), emulator.run_frame(b.golden_inputs(i), keep_all=True)
-        if gpu_backend == "mesa":
-            diff = np.abs(result.tensors["npu_input"].astype(int) - want["npu_input"].astype(int)).max()
-            assert diff <= TOLERANCES["npu_input_lsb"]
-            continue
-        for key, got in (("npu_input", result.tensors["npu_input"]), ("npu_output", result.npu_output),
-                         ("display", result.display)):
-            assert np.array_equal(got, want[key]), f"frame {i}: {key}"
+    assert_golden_frames(bundle["bundle"], gpu_backend, GOLDEN_FRAMES)
 
 
 @pytest.mark.parametrize("profile", ["tflite-ref", "tflite-builtin", "xnnpack", "ort-cpu"])
 def test_the_numpy_npu_is_bit_exact_to_every_runtime(bundle, profile):
     """The emulator's int8 kernels against the runtime itself (LiteRT's kernel set of the profile,
     or ONNX Runtime), over the render's frames: 0 differing int8 values."""
-    from mnss_kit.dataset.format import read_meta
-    from mnss_kit.emulate.frame_loop import Emulator
-    from mnss_kit.emulate.sequence import sequence_frames
-
-    runtime_backend = "onnxruntime" if profile == "ort-cpu" else "litert"
-    numpy_npu = Emulator(bundle["bundle"], npu_profile=profile, npu_backend="numpy")
-    runtime = Emulator(bundle["bundle"], npu_profile=profile, npu_backend=runtime_backend)
-    seq = next(p for p in sorted(bundle["data"].iterdir()) if p.is_dir() and not p.name.startswith("."))
-    compared = differing = 0
-    for _, frame, _ in sequence_frames(seq, read_meta(seq), GOLDEN_FRAMES, numpy_npu.runner.inputs):
-        a, b = numpy_npu.run_frame(frame), runtime.run_frame(frame)
-        differing += int((a.npu_output != b.npu_output).sum())
-        compared += a.npu_output.size
+    differing, compared = npu_differences(bundle["bundle"], bundle["data"], profile, GOLDEN_FRAMES)
     print(f"{profile}: {differing} of {compared} int8 values differ")
     assert compared > 0 and differing == 0
 
@@ -243,7 +215,7 @@ def test_the_bundle_computes_the_model(bundle):
                      reset=torch.tensor([float(frame["reset"])]))
         with torch.no_grad():
             out, aux, state = bundle["model"](batch, state)
-        to_model, model_to_taau = _mse(_hwc(out), display), _mse(_hwc(out), _hwc(aux["taau"]))
+        to_model, model_to_taau = _mse(hwc(out), display), _mse(hwc(out), hwc(aux["taau"]))
         margins.append(10 * np.log10(model_to_taau / to_model))
     print(f"int8 bundle to the model, closer than the model to TAAU by {np.round(margins, 1)} dB per frame")
     assert min(margins) > 6

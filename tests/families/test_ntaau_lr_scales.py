@@ -19,17 +19,16 @@ from mnss_kit.model.ntaau_lr import net
 from mnss_kit.model.ntaau_lr.config import NTAAULRConfig
 from mnss_kit.ops import taau as ops_taau
 from mnss_kit.ops import taau_lr
+from ntaau_lr_checks import assert_close, assert_golden_frames, hwc, npu_differences
 from mnss_kit.ops.scale import INTEGER_SCALE_ONLY, lr_size_for
+
 
 ATOL = 1e-4  # torch and numpy, float32 against float64 Gaussian weights at a ratio that is no power of two
 
 
-def _hwc(x: torch.Tensor) -> np.ndarray:
-    return x[0].permute(1, 2, 0).detach().numpy().astype(np.float32)
-
 
 def _close(got: torch.Tensor, want: np.ndarray, atol: float = ATOL) -> None:
-    np.testing.assert_allclose(_hwc(got), want, atol=atol, rtol=0)
+    assert_close(got, want, atol)
 
 
 # -- the mapping ----------------------------------------------------------------------------------
@@ -60,7 +59,7 @@ def test_block_means_cover_each_hr_pixel_once_at_1_5():
     counts = torch.bincount(taau.nearest_index(54, 36)).view(-1, 1) * torch.bincount(taau.nearest_index(96, 64)).view(1, -1)
     assert set(counts.unique().tolist()) <= {1, 2, 4} and int(counts.sum()) == 54 * 96
     torch.testing.assert_close((means[0, 0] * counts).sum(), x.sum())
-    np.testing.assert_allclose(taau_lr.block_mean(_hwc(x.float()), (36, 64), 1.5), _hwc(means.float()), atol=1e-6)
+    np.testing.assert_allclose(taau_lr.block_mean(hwc(x.float()), (36, 64), 1.5), hwc(means.float()), atol=1e-6)
 
 
 # -- torch against numpy at fractional scales -----------------------------------------------------
@@ -74,12 +73,12 @@ def test_taau_terms_match_the_numpy_reference(scale, lr, hr):
     params = taau.TAAUParams()
     inputs = taau.taau_inputs(colour, jitter, motion, torch.zeros(1), state, scale, params)
     assert inputs.samples.shape[-2:] == (hr[1], hr[0])
-    want = ops_taau.current_terms(_hwc(colour), jitter[0].numpy(), scale, params.sample_sigma, hr)
+    want = ops_taau.current_terms(hwc(colour), jitter[0].numpy(), scale, params.sample_sigma, hr)
     for name, w in zip(("samples", "sample_weight", "spatial", "lo", "hi"), want):
         _close(getattr(inputs, name), w)
-    colour_h, weight_h = ops_taau.reprojected_history(_hwc(state["history"]), _hwc(state["weight"]), _hwc(motion), False, scale)
+    colour_h, weight_h = ops_taau.reprojected_history(hwc(state["history"]), hwc(state["weight"]), hwc(motion), False, scale)
     _close(inputs.history, colour_h)
-    np.testing.assert_allclose(_hwc(inputs.history_weight), weight_h, atol=2e-4, rtol=1e-4)  # weights up to 9
+    np.testing.assert_allclose(hwc(inputs.history_weight), weight_h, atol=2e-4, rtol=1e-4)  # weights up to 9
     # the HR motion is scaled per axis by the exact ratio: a uniform LR motion of 1 pixel
     hr_motion = taau.hr_motion_of(torch.ones(1, 2, *lr), scale, hr)
     torch.testing.assert_close(hr_motion[0, :, 0, 0], torch.tensor([hr[0] / lr[1], hr[1] / lr[0]]))
@@ -96,15 +95,15 @@ def test_the_gather_and_the_steering_match_the_numpy_reference(scale, lr):
         state = {k: v for k, v in state.items() if k != "depth"}
         inputs, trust_lr, features = model.lr_gather(frame["color"], frame["depth"], first["depth"], frame["jitter"],
                                                      frame["motion"], torch.zeros(1), state)
-    change = taau_lr.depth_change(_hwc(frame["depth"]), _hwc(first["depth"]), _hwc(frame["motion"]))
-    spread = taau_lr.motion_spread(_hwc(frame["motion"]))
-    want = taau_lr.steering_features(_hwc(frame["color"]), _hwc(inputs.history), _hwc(inputs.history_weight), change, spread,
+    change = taau_lr.depth_change(hwc(frame["depth"]), hwc(first["depth"]), hwc(frame["motion"]))
+    spread = taau_lr.motion_spread(hwc(frame["motion"]))
+    want = taau_lr.steering_features(hwc(frame["color"]), hwc(inputs.history), hwc(inputs.history_weight), change, spread,
                                      scale, model.params.max_weight)
     _close(features, want)
     raw = 3.0 * torch.randn(1, 6, *lr, generator=g)
     hr_size = (inputs.samples.shape[-1], inputs.samples.shape[-2])
     steer = net.steer_from_lr(raw, trust_lr, config, hr_size)
-    want_steer = taau_lr.steer_from_lr(_hwc(raw), _hwc(trust_lr), scale, config.box_bound, config.filter_bound, hr_size)
+    want_steer = taau_lr.steer_from_lr(hwc(raw), hwc(trust_lr), scale, config.box_bound, config.filter_bound, hr_size)
     for name in ("history_gain", "sample_gain", "box_widen", "fallback", "filter_axis", "filter_diagonal"):
         _close(getattr(steer, name), getattr(want_steer, name))
 
@@ -204,38 +203,12 @@ def test_the_bundle_records_its_sizes_and_passes_its_check(bundle):
 def test_the_emulator_reproduces_the_golden_frames(bundle, gpu_backend):
     """numpy GPU stage: bit for bit over every golden frame; the bundle's shaders on Mesa: frame 0
     within the golden tolerance (later frames read a history that GPU made)."""
-    from mnss_kit.emulate.frame_loop import Emulator
-    from mnss_kit.export.golden import TOLERANCES
-    from mnss_kit.export.reader import open_bundle
-
-    b = open_bundle(bundle["bundle"])
-    emulator = Emulator(bundle["bundle"], gpu_backend=gpu_backend)
-    for i in range(GOLDEN_FRAMES if gpu_backend == "numpy" else 1):
-        want, result = b.golden(i), emulator.run_frame(b.golden_inputs(i), keep_all=True)
-        if gpu_backend == "mesa":
-            diff = np.abs(result.tensors["npu_input"].astype(int) - want["npu_input"].astype(int)).max()
-            assert diff <= TOLERANCES["npu_input_lsb"]
-            continue
-        for key, got in (("npu_input", result.tensors["npu_input"]), ("npu_output", result.npu_output),
-                         ("display", result.display)):
-            assert np.array_equal(got, want[key]), f"frame {i}: {key}"
+    assert_golden_frames(bundle["bundle"], gpu_backend, GOLDEN_FRAMES)
 
 
 @pytest.mark.parametrize("profile", ["tflite-ref", "tflite-builtin", "xnnpack", "ort-cpu"])
 def test_the_numpy_npu_is_bit_exact_to_every_runtime(bundle, profile):
-    from mnss_kit.dataset.format import read_meta
-    from mnss_kit.emulate.frame_loop import Emulator
-    from mnss_kit.emulate.sequence import sequence_frames
-
-    runtime_backend = "onnxruntime" if profile == "ort-cpu" else "litert"
-    numpy_npu = Emulator(bundle["bundle"], npu_profile=profile, npu_backend="numpy")
-    runtime = Emulator(bundle["bundle"], npu_profile=profile, npu_backend=runtime_backend)
-    seq = next(p for p in sorted(bundle["data"].iterdir()) if p.is_dir() and not p.name.startswith("."))
-    compared = differing = 0
-    for _, frame, _ in sequence_frames(seq, read_meta(seq), GOLDEN_FRAMES, numpy_npu.runner.inputs):
-        a, b = numpy_npu.run_frame(frame), runtime.run_frame(frame)
-        differing += int((a.npu_output != b.npu_output).sum())
-        compared += a.npu_output.size
+    differing, compared = npu_differences(bundle["bundle"], bundle["data"], profile, GOLDEN_FRAMES)
     print(f"x{bundle['scale']:g} {profile}: {differing} of {compared} int8 values differ")
     assert compared > 0 and differing == 0
 
@@ -347,6 +320,6 @@ def test_one_scale_input_checkpoint_exports_at_several_scales(scale_input_bundle
             with torch.no_grad():
                 out, aux, state = model(batch, state)
             mse = lambda a, c: float(((a - c) ** 2).mean())  # noqa: E731
-            margins.append(10 * np.log10(mse(_hwc(out), _hwc(aux["taau"])) / mse(_hwc(out), display)))
+            margins.append(10 * np.log10(mse(hwc(out), hwc(aux["taau"])) / mse(hwc(out), display)))
         print(f"x{s}: int8 bundle closer to the model than the model to TAAU by {np.round(margins, 1)} dB")
         assert min(margins) > 6
