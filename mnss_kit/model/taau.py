@@ -338,6 +338,17 @@ def reprojected_history(history: torch.Tensor, weight: torch.Tensor, hr_motion: 
     return colour, new_weight
 
 
+
+def start_frame(frame: dict, state: dict | None, initial_state, like: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, dict]:
+    """A TAAU-based model's reset flags (N,), its cut mask (N, 1, 1, 1) and the state a frame starts
+    from: ``initial_state(frame)``, and a reset, when ``state`` is None.  ``like``: the (N, ...) colour."""
+    n = like.shape[0]
+    reset = frame.get("reset")
+    reset = like.new_zeros(n) if reset is None else reset.to(like)
+    if state is None:
+        state, reset = initial_state(frame), like.new_ones(n)
+    return reset, (reset > 0.5).view(n, 1, 1, 1), state
+
 @dataclass
 class TAAUInputs:
     """What one TAAU step computes before it blends (all YCoCg, HR unless noted)."""

@@ -41,7 +41,7 @@ from torch import nn
 from ..blocks import conv_stack
 from ..family import check_frame
 from ..taau import (TAAUInputs, TAAUParams, blend, filter_gain, history_floor, sanitize_colour, sanitize_motion,
-                    steer_from_raw, taau_inputs)
+                    start_frame, steer_from_raw, taau_inputs)
 from .config import NTAAUConfig
 
 STAGE_ORDER = ("taau_gather", "steer", "taau_accumulate")
@@ -126,12 +126,8 @@ class NTAAU(nn.Module):
         check_frame(frame, FRAME_SHAPES, self.scale, "ntaau")
         # one bad frame costs one frame: NaN / Inf inputs never reach the history (ops.sanitize)
         color, motion, jitter = sanitize_colour(frame["color"]), sanitize_motion(frame["motion"]), frame["jitter"]
-        n = color.shape[0]
-        reset = frame.get("reset")
-        reset = color.new_zeros(n) if reset is None else reset.to(color)
-        if state is None:
-            state, reset = self.initial_state(frame), color.new_ones(n)
-        cut = (reset > 0.5).view(n, 1, 1, 1)  # a cut history may hold anything, NaN included
+        # reset (N,), cut (N, 1, 1, 1): a cut history may hold anything, NaN included
+        reset, cut, state = start_frame(frame, state, self.initial_state, color)
         state = {k: torch.where(cut, 0.0, v) for k, v in state.items()}
         inputs, features = self.taau_gather(color, jitter, motion, reset, state)
         output, next_state = self.taau_accumulate(inputs, self.steer(features))

@@ -43,7 +43,7 @@ from torch import nn
 from ..family import check_frame
 from ..layers import warp_bilinear
 from ..taau import (Steer, TAAUInputs, TAAUParams, blend, block_mean, box_widening, hr_dims, is_tiled, rgb_to_ycocg,
-                    sanitize_colour, sanitize_depth, sanitize_motion, taau_inputs)
+                    sanitize_colour, sanitize_depth, sanitize_motion, start_frame, taau_inputs)
 from ...ops.scale import parse_scale, size_mismatch
 from .config import NTAAULRConfig
 
@@ -239,12 +239,8 @@ class NTAAULR(nn.Module):
         check_frame(frame, FRAME_SHAPES, self.scale, "ntaau_lr")
         color, motion = sanitize_colour(frame["color"]), sanitize_motion(frame["motion"])
         depth, jitter = sanitize_depth(frame["depth"]), frame["jitter"]
-        n = color.shape[0]
-        reset = frame.get("reset")
-        reset = color.new_zeros(n) if reset is None else reset.to(color)
-        if state is None:
-            state, reset = self.initial_state(frame), color.new_ones(n)
-        cut = (reset > 0.5).view(n, 1, 1, 1)  # a cut history may hold anything, NaN included
+        # reset (N,), cut (N, 1, 1, 1): a cut history may hold anything, NaN included
+        reset, cut, state = start_frame(frame, state, self.initial_state, color)
         previous_depth = torch.where(cut, depth, state["depth"])
         state = {"history": torch.where(cut, 0.0, state["history"]), "weight": torch.where(cut, 0.0, state["weight"])}
         hr_size = (state["history"].shape[-1], state["history"].shape[-2])
