@@ -26,7 +26,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from ..metrics.image import ssim
-from .layers import upsample_motion, warp_bilinear
+from .layers import warp_bilinear
 from .taau import hr_motion_of
 
 # Band-pass and gradient differences of flat regions are rounding noise around zero; a plain L1 turns
@@ -74,17 +74,13 @@ def pyramid_loss(output: torch.Tensor, target: torch.Tensor, levels: int = 3) ->
     return band + grad
 
 
-def flicker_term(error: torch.Tensor, prev_error: torch.Tensor, motion: torch.Tensor, scale: int,
+def flicker_term(error: torch.Tensor, prev_error: torch.Tensor, motion: torch.Tensor,
                  reset: torch.Tensor | None) -> torch.Tensor:
     """Change of the error ``e`` (N, 3, H, W) from the previous frame's, warped by the LR ``motion``
     (N, 2, h, w); frames with ``reset`` (N,) set have no previous frame.  The motion is brought to the
-    error's size, so a batch at another scale than the loss's (training on several scales) works."""
-    h, w = motion.shape[-2:]
-    hr_size = tuple(error.shape[-2:])
-    if hr_size == (h * scale, w * scale):
-        hr_motion = upsample_motion(motion, scale)
-    else:
-        hr_motion = hr_motion_of(motion, hr_size[1] / w, (hr_size[1], hr_size[0]))
+    error's size: the scale is the batch's (training on several scales), not fixed by the loss."""
+    height, width = error.shape[-2:]
+    hr_motion = hr_motion_of(motion, width / motion.shape[-1], (width, height))  # upsample_motion when tiled
     change = error - warp_bilinear(prev_error, hr_motion)
     if reset is not None:
         change = change * (reset <= 0.5).to(change.dtype).view(-1, 1, 1, 1)
@@ -121,5 +117,5 @@ class DisplayLoss(nn.Module):
         return {"total": total, "ssim": structural, "perceptual": perceptual, "l1": l1, "mse": mse, "flicker": flicker}
 
     def flicker(self, error: torch.Tensor, prev_error: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor | None) -> torch.Tensor:
-        """``model.losses.flicker_term`` at this loss's scale."""
-        return flicker_term(error, prev_error, motion, self.scale, reset)
+        """``model.losses.flicker_term``."""
+        return flicker_term(error, prev_error, motion, reset)

@@ -55,5 +55,5 @@ class MNSSLoss(nn.Module):
         return {"total": total, "ssim": structural, "perceptual": perceptual, "aa": aa_term, "flicker": flicker}
 
     def flicker(self, error: torch.Tensor, prev_error: torch.Tensor, motion: torch.Tensor, reset: torch.Tensor | None) -> torch.Tensor:
-        """``model.losses.flicker_term`` at this loss's scale."""
-        return flicker_term(error, prev_error, motion, self.scale, reset)
+        """``model.losses.flicker_term``."""
+        return flicker_term(error, prev_error, motion, reset)
