@@ -6,12 +6,17 @@ import argparse
 from pathlib import Path
 
 HELP = "bench every shipped and trained model (fp32 and int8) and the baselines: quality vs cost JSON and charts"
+DEFAULT_OUT = Path("runs/bench")
+DEFAULT_WORK = Path("runs/work")  # shared with ``mnss-kit stress``: data rendered once serves both
+BENCH_FILE = "bench.json"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--out", type=Path, default=Path("bench/results/bench.json"), help="bench JSON (default: %(default)s)")
-    parser.add_argument("--charts", type=Path, help="directory for the PNG charts (default: beside --out)")
-    parser.add_argument("--work", type=Path, default=Path("bench/results/work"),
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, metavar="DIR",
+                        help=f"directory for {BENCH_FILE} and charts/; a path ending in .json names the bench file "
+                             "itself, its charts beside it (default: %(default)s, under the working directory)")
+    parser.add_argument("--charts", type=Path, help="directory for the PNG charts (default: charts/ beside the bench file)")
+    parser.add_argument("--work", type=Path, default=DEFAULT_WORK,
                         help="rendered data sets and bundles, reused between runs (default: %(default)s)")
     parser.add_argument("--models", nargs="+", metavar="MODEL",
                         help="checkpoints or shipped names (default: every shipped checkpoint and runs/*/model.pt)")
@@ -25,6 +30,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
+def bench_file(out: Path) -> Path:
+    """The bench JSON ``--out`` names: ``out`` itself when it ends in ``.json``, else ``bench.json`` in it."""
+    return out if out.suffix.lower() == ".json" else out / BENCH_FILE
+
+
 def run(args: argparse.Namespace) -> int:
     from ..fileio import check_output
     from ..ops.scale import parse_scale
@@ -32,14 +42,15 @@ def run(args: argparse.Namespace) -> int:
     if args.scale is not None:
         args.scale = parse_scale(args.scale, "--scale")  # 0.5, 1.0, nan, 9: one line
 
-    charts = args.charts or args.out.parent / "charts"
-    for path, kind in ((args.out, "file"), (charts, "into"), (args.work, "into")):
+    out = bench_file(args.out)
+    charts = args.charts or out.parent / "charts"
+    for path, kind in ((out, "file"), (charts, "into"), (args.work, "into")):
         check_output(path, kind)
 
     from .charts import write_charts
     from .run import BenchRequest, run_bench, sections
 
-    doc = run_bench(BenchRequest(out=args.out, work=args.work, models=args.models, data=args.data, quick=args.quick,
+    doc = run_bench(BenchRequest(out=out, work=args.work, models=args.models, data=args.data, quick=args.quick,
                                  scale=args.scale, devices=args.devices, progress=not args.no_progress))
     written = write_charts(doc, charts)
     for section_name, section in sections(doc):
@@ -47,5 +58,5 @@ def run(args: argparse.Namespace) -> int:
             cpu = (r.get("cpu_ms") or {}).get("xnnpack")
             print(f"{section_name:3s} {key:28s} PSNR {r['psnr']:6.2f}  SSIM {r['ssim']:.4f}  IF-SSIM {r['if_ssim']:.4f}  "
                   f"MACs/px {r['macs_per_pixel']:8.0f}  " + (f"CPU {cpu:7.2f} ms" if cpu is not None else ""))
-    print(f"wrote {args.out} and {len(written)} charts in {charts}")
+    print(f"wrote {out} and {len(written)} charts in {charts}")
     return 0

@@ -58,8 +58,8 @@ FULL = dict(data="test_x2", max_frames=30, latency_size=(1280, 720), latency_rep
 
 @dataclass
 class BenchRequest:
-    out: Path = Path("bench/results/bench.json")
-    work: Path = Path("bench/results/work")  # rendered data sets and bundles, reused between runs
+    out: Path = Path("runs/bench/bench.json")
+    work: Path = Path("runs/work")  # rendered data sets and bundles, reused between runs
     models: list[str] | None = None  # checkpoint paths or shipped names (default: module docstring)
     data: Path | None = None  # held-out data set (default: render the settings' config into ``work``)
     quick: bool = False

@@ -18,8 +18,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--budget-ms", type=float, nargs="+", default=list(DEFAULT_BUDGETS_MS), metavar="MS",
                         help="estimated frame ms budgets of the verdict: the best model within each, per device profile "
                              f"(default: {' '.join(f'{b:g}' for b in DEFAULT_BUDGETS_MS)})")
-    parser.add_argument("--out", type=Path, default=Path("bench/results/report"),
-                        help="output directory: index.html, its charts and crops (default: %(default)s)")
+    parser.add_argument("--out", type=Path, default=Path("runs/report"),
+                        help="output directory: index.html, its charts and crops (default: %(default)s, under the "
+                             "working directory)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output directory")
 
 

@@ -36,8 +36,8 @@ ESTIMATE_NOTE = ("Device milliseconds are estimates from the device profiles, no
                  "GPU/NPU placement costed from its MACs and tensor sizes, with the NPU stage at the profile's int8 "
                  "throughput, the form a phone runs.  They depend on the architecture, not on the precision of the "
                  "numbers measured, so a model's fp32 and int8 rows show the same estimate.")
-MISSING = {"bench": ("--bench", "`mnss-kit bench` (writes bench/results/bench.json)"),
-           "stress": ("--stress", "`mnss-kit stress` (writes bench/results/stress/stress.json)"),
+MISSING = {"bench": ("--bench", "`mnss-kit bench` (writes runs/bench/bench.json)"),
+           "stress": ("--stress", "`mnss-kit stress` (writes runs/stress/stress.json)"),
            "size": ("--size", "`mnss-kit size --data DIR --target within:0.3` (writes runs/size/size.json)")}
 
 

@@ -31,7 +31,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--output-size", default="1280x720", metavar="WxH", help="HR size of the device estimates (default: %(default)s)")
     parser.add_argument("--max-frames", type=_positive_int, metavar="N", help="evaluate at most N frames of each held-out sequence")
     parser.add_argument("--out", type=Path, default=Path("runs/size"),
-                        help="directory for runs/, size.json, size.md and size.png; rerunning continues it (default: %(default)s)")
+                        help="directory for runs/, size.json, size.md and size.png; rerunning continues it (default: %(default)s, "
+                             "under the working directory)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 

@@ -16,10 +16,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("--models", nargs="+", default=[DEFAULT_MODEL], metavar="MODEL",
                         help="checkpoints or shipped names to test against bicubic, TAAU and the FSR2-class upscaler (default: %(default)s)")
-    parser.add_argument("--out", type=Path, default=Path("bench/results/stress"),
-                        help="directory for stress.json, stress.md, plots/ and crops/ (default: %(default)s)")
-    parser.add_argument("--work", type=Path, default=Path("bench/results/work"),
-                        help="the rendered scenarios are kept here and reused (default: %(default)s)")
+    parser.add_argument("--out", type=Path, default=Path("runs/stress"),
+                        help="directory for stress.json, stress.md, plots/ and crops/ (default: %(default)s, under the "
+                             "working directory)")
+    parser.add_argument("--work", type=Path, default=Path("runs/work"),
+                        help="the rendered scenarios are kept here and reused, as `mnss-kit bench` keeps its sets "
+                             "(default: %(default)s)")
     parser.add_argument("--data", type=Path, help="already rendered scenario sequences (default: render mnss_kit/configs/data/stress.yaml)")
     parser.add_argument("--max-frames", type=_positive_int, metavar="N", help="evaluate at most N frames of each scenario")
     parser.add_argument("--no-crops", action="store_true", help="no image crops")

@@ -27,7 +27,7 @@ METRIC_KEYS = ("psnr", "ssim", "if_ssim", "temporal_error", "disocclusion_psnr",
 @dataclass
 class StressRequest:
     models: list[str] = field(default_factory=lambda: [DEFAULT_MODEL])  # checkpoint paths or shipped names
-    work: Path = Path("bench/results/work")  # the rendered scenarios are kept here and reused
+    work: Path = Path("runs/work")  # the rendered scenarios are kept here and reused
     data: Path | None = None  # already rendered scenario sequences (default: render DATA_CONFIG into work)
     max_frames: int | None = None
     crops_dir: Path | None = None

@@ -118,6 +118,31 @@ def test_every_scale_gets_its_own_section_in_one_file(fake_measurements, tmp_pat
     assert bench_run.models_by_scale(bench_run.BenchRequest(**request)) == {2: ["a"], 4: ["model_x4"]}
 
 
+def test_the_command_writes_where_out_says_and_else_under_runs(fake_measurements, tmp_path, monkeypatch, capsys):
+    """``mnss-kit bench --out D`` writes D/bench.json and D/charts/; without --out the results go
+    to runs/bench/ of the working directory, never into its bench/ (the micro-benchmarks' name)."""
+    from mnss_kit.cli import main
+
+    cwd = tmp_path / "cwd"
+    cwd.mkdir()
+    monkeypatch.chdir(cwd)
+    args = ["bench", "--models", "a", "--quick", "--devices", "snapdragon_8_gen_1", "--no-progress"]
+    out = tmp_path / "D"
+    assert main([*args, "--out", str(out)]) == 0
+    doc = json.loads((out / "bench.json").read_text())
+    assert _keys(doc) == {"bicubic/baseline", "taau/baseline", "a/fp32", "a/int8"}
+    assert (out / "charts" / "x2" / "psnr_vs_macs.png").is_file()
+    assert list(cwd.iterdir()) == []  # nothing in the working directory: no bench/, no runs/
+    assert f"wrote {out / 'bench.json'}" in capsys.readouterr().out
+
+    assert main(args) == 0
+    assert json.loads((cwd / "runs" / "bench" / "bench.json").read_text()) == doc  # the same JSON
+    assert (cwd / "runs" / "bench" / "charts" / "x2").is_dir()
+    assert not (cwd / "bench").exists()
+    assert main([*args, "--out", str(tmp_path / "named.json")]) == 0  # a .json path is the file itself
+    assert json.loads((tmp_path / "named.json").read_text()) == doc and (tmp_path / "charts" / "x2").is_dir()
+
+
 def test_charts_are_drawn_per_scale_from_a_bench_document(tmp_path):
     records = {f"{n}/{p}": good_record(name=n, precision=p, psnr=30 + i + (0.1 if p == "fp32" else 0.0), macs_per_pixel=1000.0 * (i + 1))
                for i, n in enumerate(("small", "large")) for p in ("fp32", "int8")}

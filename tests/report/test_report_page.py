@@ -184,7 +184,7 @@ def test_report_states_the_estimates_once_and_each_section_not_given(tmp_path):
     text = html.unescape(re.sub(r"<[^>]+>", "", page.read_text()))
     assert text.count("estimates from the device profiles") == 1
     assert "fp32 and int8 rows show the same estimate" in text
-    assert "Not in this report: --stress was not given.  mnss-kit stress (writes bench/results/stress/stress.json) makes it" in text
+    assert "Not in this report: --stress was not given.  mnss-kit stress (writes runs/stress/stress.json) makes it" in text
     assert "Not in this report: --size was not given." in text and "--bench was not given" not in text
 
 
