@@ -46,7 +46,7 @@ def main() -> None:
     parser.add_argument("bundle", type=Path)
     parser.add_argument("--data", type=Path, required=True, help="one dataset sequence")
     parser.add_argument("--frames", type=int, default=10)
-    parser.add_argument("--json", type=Path, default=Path("bench/results/emulator_exactness.json"))
+    parser.add_argument("--json", type=Path, default=Path("benchmarks/results/emulator_exactness.json"))
     args = parser.parse_args()
     frames = bundle_frames(args.bundle, args.data, args.frames)
     results = {}

@@ -4,7 +4,7 @@
 ``mnss-kit eval --scale S``.  Writes one eval JSON per set and mode and ``modes.json`` (the
 per-method means of every entry) into OUT.
 
-    python scripts/eval_modes.py runs/ntaau_lr_modes/model.pt --out bench/modes
+    python scripts/eval_modes.py runs/ntaau_lr_modes/model.pt --out benchmarks/results/modes
     python scripts/eval_modes.py none --out /tmp/modes --sets test_x2=1.5,3 --max-frames 24
 
 Each set is rendered by ``--scale`` overrides of its config (``mnss-kit render CONFIG --scale S

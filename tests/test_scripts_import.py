@@ -1,4 +1,4 @@
-"""Every name the scripts under scripts/, scripts/studies/ and bench/ import exists: a script that runs for an hour
+"""Every name the scripts under scripts/, scripts/studies/ and benchmarks/ import exists: a script that runs for an hour
 must not stop at its last step on an import a refactor left behind."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
-SCRIPTS = sorted((REPO / "scripts").glob("*.py")) + sorted((REPO / "scripts" / "studies").glob("*.py")) + sorted((REPO / "bench").glob("*.py"))
+SCRIPTS = sorted((REPO / "scripts").glob("*.py")) + sorted((REPO / "scripts" / "studies").glob("*.py")) + sorted((REPO / "benchmarks").glob("*.py"))
 
 
 def imported_names(path: Path) -> list[tuple[str, str | None, int]]:
@@ -27,7 +27,7 @@ def imported_names(path: Path) -> list[tuple[str, str | None, int]]:
 
 @pytest.mark.parametrize("path", SCRIPTS, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_every_import_of_a_script_resolves(path, monkeypatch):
-    for folder in (REPO, REPO / "bench", REPO / "scripts", REPO / "scripts" / "studies"):
+    for folder in (REPO, REPO / "benchmarks", REPO / "scripts", REPO / "scripts" / "studies"):
         monkeypatch.syspath_prepend(str(folder))
     missing = []
     for module, name, line in imported_names(path):

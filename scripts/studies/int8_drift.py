@@ -18,7 +18,7 @@ same source frames in the same order.
 
 The GPU part runs in PyTorch float32, the int8 NPU stage in LiteRT (XNNPACK
 by default).  Compares the mean PSNR of the last 100 frames with that of
-frames 101-200; writes ``bench/results/int8_drift.json`` and regenerates
+frames 101-200; writes ``benchmarks/results/int8_drift.json`` and regenerates
 ``docs/studies/quantization.md`` (``scripts/studies/quantize_study.py``).
 """
 

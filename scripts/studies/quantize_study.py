@@ -10,7 +10,7 @@ setting.  All settings are then evaluated in one run of
 ``mnss_kit.eval.run.evaluate`` (the code behind ``mnss-kit eval``) next to the
 float model, so every frame is paired.  The quality numbers are deterministic
 (one run); the latencies are medians of interleaved runs.  Writes
-``bench/results/quantize_study.json`` and generates ``docs/studies/quantization.md``
+``benchmarks/results/quantize_study.json`` and generates ``docs/studies/quantization.md``
 with its charts from that file and from ``scripts/studies/int8_drift.py``'s JSON.
 """
 
@@ -24,14 +24,14 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
-sys.path.insert(0, str(REPO / "bench"))
+sys.path.insert(0, str(REPO / "benchmarks"))
 
 from mnss_kit.fileio import atomic_output_path, atomic_write_json, atomic_write_text, portable_command, portable_path  # noqa: E402
 from mnss_kit.model.families import npu_module  # noqa: E402
 from mnss_kit.ops.runtimes import DEFAULT_RUNTIME, get_runtime, runtime_names  # noqa: E402
 
-STUDY_JSON = REPO / "bench" / "results" / "quantize_study.json"
-DRIFT_JSON = REPO / "bench" / "results" / "int8_drift.json"
+STUDY_JSON = REPO / "benchmarks" / "results" / "quantize_study.json"
+DRIFT_JSON = REPO / "benchmarks" / "results" / "int8_drift.json"
 DOC = REPO / "docs" / "studies" / "quantization.md"
 METHODS = ("minmax", "percentile", "entropy", "mse")
 # the target: int8 loses at most 0.2 dB PSNR and at most 0.002 IF-SSIM against fp32 (delta = int8 - fp32)

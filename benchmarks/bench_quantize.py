@@ -3,7 +3,7 @@
 The measurement is :func:`mnss_kit.bench.latency.npu_latency` (int8 and fp32 timed side by side
 in one run) on the NPU stage of a model config with its initial weights.
 
-    python bench/bench_quantize.py --out bench/results/quantize.json
+    python benchmarks/bench_quantize.py --out benchmarks/results/quantize.json
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ def main() -> int:
     parser.add_argument("--repeats", type=int, default=10)
     parser.add_argument("--warmup", type=int, default=2)
     parser.add_argument("--threads", type=int, default=1)
-    parser.add_argument("--out", type=Path, default=Path("bench/results/quantize.json"))
+    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/quantize.json"))
     args = parser.parse_args()
 
     torch.manual_seed(0)

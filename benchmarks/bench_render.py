@@ -3,7 +3,7 @@
 Renders the first frames of the default data config (all buffers, EXR writes included)
 several times into a temporary directory and writes the median to JSON.
 
-    python bench/bench_render.py [--frames 12] [--runs 3] [--out bench/results/render.json]
+    python benchmarks/bench_render.py [--frames 12] [--runs 3] [--out benchmarks/results/render.json]
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ def main() -> int:
     parser.add_argument("--config", default="default", help="data config (first sequence is used)")
     parser.add_argument("--frames", type=int, default=12, help="frames per run")
     parser.add_argument("--runs", type=int, default=3)
-    parser.add_argument("--out", default="bench/results/render.json")
+    parser.add_argument("--out", default="benchmarks/results/render.json")
     args = parser.parse_args()
 
     cfg = load_render_config(args.config, [f"frames={args.frames}"])

@@ -11,7 +11,7 @@ Two settings, each repeated (medians):
 The model is the mnss_x2 config with random weights (timing does not depend on training).
 The machine is shared; compare numbers from one run only.
 
-    python bench/bench_export.py --out bench/results/export.json
+    python benchmarks/bench_export.py --out benchmarks/results/export.json
 """
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ def main() -> int:
     parser.add_argument("--resolution", default="1280x720")
     parser.add_argument("--device", default="snapdragon_8_gen_1")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--out", type=Path, default=Path("bench/results/export.json"))
+    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/export.json"))
     args = parser.parse_args()
 
     with tempfile.TemporaryDirectory(prefix="bench-export-") as tmp:

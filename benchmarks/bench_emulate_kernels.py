@@ -5,7 +5,7 @@ output (LR 640x360, 32 -> 32 channels) is timed under every runtime, split
 into accumulation (im2col + float matmul) and requantization.  Medians over
 repeated runs; the machine is shared, so compare numbers from one run only.
 
-    python bench/bench_emulate_kernels.py --out bench/results/emulate_kernels.json
+    python benchmarks/bench_emulate_kernels.py --out benchmarks/results/emulate_kernels.json
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ def main() -> int:
     parser.add_argument("--width", type=int, default=640)
     parser.add_argument("--channels", type=int, default=32)
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--out", type=Path, default=Path("bench/results/emulate_kernels.json"))
+    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/emulate_kernels.json"))
     args = parser.parse_args()
 
     rng = np.random.default_rng(0)

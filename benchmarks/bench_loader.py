@@ -1,13 +1,13 @@
 """Training-loader throughput: windows per second reading EXR files directly vs the decoded cache.
 
-    python bench/bench_loader.py [--data DIR] [--window 4] [--crop 64 64] [--epochs 5] [--workers 0]
+    python benchmarks/bench_loader.py [--data DIR] [--window 4] [--crop 64 64] [--epochs 5] [--workers 0]
 
 Without ``--data`` a synthetic dataset is generated in a temporary directory.
 Each mode iterates a DataLoader over every window for several epochs (new
 crops each epoch) and reports the median windows/s; both modes run in the same
 process, one after the other, so their ratio is measured side by side.  The
 cache build time is reported separately.  Results go to JSON (default
-bench/results/loader.json).
+benchmarks/results/loader.json).
 """
 
 from __future__ import annotations

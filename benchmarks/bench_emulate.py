@@ -13,7 +13,7 @@ over the timed frames (the first frame, a reset, is a warm-up and not timed):
 * for every convolution, the requantization by the ``ops.int8.requantize.requantize`` definition versus the
   emulator's :class:`~mnss_kit.emulate.fast.Requantizer` (checked equal on the same accumulators).
 
-    python bench/bench_emulate.py --out bench/results/emulate.json [--profile tflite-ref] [--frames 6] [--workdir DIR]
+    python benchmarks/bench_emulate.py --out benchmarks/results/emulate.json [--profile tflite-ref] [--frames 6] [--workdir DIR]
 
 ``--workdir`` keeps the exported bundle and data there and reuses them on the next run (the
 export takes half a minute and needs torch).
@@ -125,7 +125,7 @@ def run_frames(emulator, frames: list[dict]) -> tuple[list[dict], list[float], l
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("bench/results/emulate.json"))
+    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/emulate.json"))
     parser.add_argument("--profile", default="tflite-ref", help="NPU profile (default: tflite-ref)")
     parser.add_argument("--frames", type=int, default=6,
                         help="frames run (at most those of a reused --workdir); the first is a warm-up (default 6)")
