@@ -46,7 +46,6 @@ RENDER_FRAMES = 48  # rendered per variant sequence (the sets scripts/studies/in
 SETS = {"test_x2": "data/test_x2", "unseen_x2": None}  # render config -> the MNSS-jitter set already rendered (None: render)
 SHOWN = ("mnss", "no_jitter_ldr8_depth8", "halton")
 BASELINES = ("taau", "bicubic")
-CALIBRATION = "data/train_x2"  # quantization calibrates on training frames, never on held-out ones
 # targets for the default model (the first) and the fast one (the second)
 TAAU_MARGIN_DB, BICUBIC_MARGIN_DB = 1.0, 4.0
 ENGINE_LINK = ("The same sets as an engine sends them, judged against the 16-sample box and against a native TAA frame, with "
@@ -72,13 +71,25 @@ def evaluate_entry(models: list[str], data: Path, crops: Path | None, int8: bool
         model.eval()
         methods[model_label(name)] = model_method(model)
         if int8 and name == models[0]:
-            bundle = export_at_size(name, data, REPO / CALIBRATION, BUNDLES / model_label(name))
+            bundle = export_at_size(name, data, calibration_data(name), BUNDLES / model_label(name))
             methods[f"{model_label(name)} int8"] = bundle_method(bundle)
     methods.update(baseline_methods(2, BASELINES))
     result = evaluate(methods, data, scale=2, max_frames=FRAMES, crops_dir=crops, progress=False)
     # how steady the 16-sample reference is: the IF-SSIM a method matching it would score
     steadiness = {seq: entry["reference_if_ssim"] for seq, entry in result["sequences"].items()}
     return {**quality_table(result, methods), "reference_if_ssim": steadiness}
+
+
+def calibration_data(name: str) -> Path:
+    """The first training set of the checkpoint: quantization calibrates on frames the model was
+    trained on, never on held-out ones."""
+    from mnss_kit.model.checkpoint import read_record
+
+    record, _ = read_record(name)
+    train_data = (record.get("train") or {}).get("train_data") or []
+    if not train_data:
+        raise SystemExit(f"error: {name} records no training data to calibrate its int8 graph on")
+    return REPO / train_data[0]
 
 
 def checkpoint_digests(models: list[str]) -> list[str]:
