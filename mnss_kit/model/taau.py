@@ -57,6 +57,11 @@ def sanitize_motion(motion: torch.Tensor) -> torch.Tensor:
     return torch.where(torch.isfinite(motion), motion, torch.zeros_like(motion))
 
 
+def sanitize_gbuffer(gbuffer: torch.Tensor) -> torch.Tensor:
+    """``ops.sanitize.sanitize_gbuffer`` in torch: NaN -> 0, +-Inf -> +-COLOUR_MAX, finite values unchanged."""
+    return torch.nan_to_num(gbuffer, nan=0.0, posinf=COLOUR_MAX, neginf=-COLOUR_MAX)
+
+
 @dataclass(frozen=True)
 class TAAUParams:
     alpha: float = 0.1

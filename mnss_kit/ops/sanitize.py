@@ -3,8 +3,8 @@
 One bad frame must cost one frame: a shader bug or a sky at infinite depth can write NaN or Inf
 into the colour, depth or motion an engine hands over, and a NaN that reaches the history stays
 there (every later blend with it is NaN).  Every read of an engine input by a GPU pass goes through
-these definitions (GLSL: ``sanitize_colour`` / ``sanitize_depth`` / ``sanitize_motion`` in
-``shaders/runtime/common.glsl``; torch: ``mnss_kit.model.taau.sanitize_*``).
+these definitions (GLSL: ``sanitize_colour`` / ``sanitize_depth`` / ``sanitize_motion`` /
+``sanitize_gbuffer`` in ``shaders/runtime/common.glsl``; torch: ``mnss_kit.model.taau.sanitize_*``).
 
 Each function is the identity on the finite values its texture format holds, so a bundle's output
 on finite inputs is bit-identical with or without it.
@@ -17,6 +17,10 @@ on finite inputs is bit-identical with or without it.
 - depth (canonical linear depth in [0, 1], ``r32f``): NaN and +-Inf -> ``FAR_DEPTH`` (1.0, the far
   plane): a sky written at infinite depth is far, and a NaN has no better guess.
 - motion (LR pixels, ``rg32f``): NaN and +-Inf -> 0 per component (the surface did not move).
+- material G-buffers (F_beta, emissive, normal, albedo; ``rgba16f``, FuseSR reads them): NaN -> 0,
+  +-Inf -> +-``COLOUR_MAX``, finite values unchanged (no fp16 texel holds a finite value beyond
+  ``COLOUR_MAX``, so on a texture's contents this is the colour's rule).  A NaN F_beta becomes 0:
+  "about zero", the pixel is not demodulated and remodulates to its emissive alone.
 
 Values are float32 throughout; the input's dtype is kept.
 """
@@ -45,3 +49,9 @@ def sanitize_motion(motion: np.ndarray) -> np.ndarray:
     """Motion (any shape), NaN and +-Inf -> 0 per component; finite values unchanged."""
     x = np.asarray(motion)
     return np.where(np.isfinite(x), x, 0.0).astype(x.dtype)
+
+
+def sanitize_gbuffer(gbuffer: np.ndarray) -> np.ndarray:
+    """A material G-buffer (any shape), NaN -> 0, +-Inf -> +-COLOUR_MAX; finite values unchanged."""
+    x = np.asarray(gbuffer)
+    return np.where(np.isnan(x), 0.0, np.where(np.isinf(x), np.copysign(COLOUR_MAX, x), x)).astype(x.dtype)

@@ -25,7 +25,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from ..layers import add_upsampled, demodulate, jittered_upsample, remodulate, upsample_motion, warp_bilinear
-from ..taau import sanitize_colour, sanitize_depth, sanitize_motion
+from ..taau import sanitize_colour, sanitize_depth, sanitize_gbuffer, sanitize_motion
 from ..family import check_frame
 from .config import GBUFFER_CHANNELS, FuseSRConfig
 
@@ -187,7 +187,10 @@ class FuseSR(nn.Module):
         # one bad frame costs one frame: NaN / Inf inputs never reach the history (ops.sanitize)
         color, jitter = sanitize_colour(frame["color"]), frame["jitter"]
         n = color.shape[0]
-        x = self.demodulate(color, frame["lr_fbeta"], frame["lr_emissive"]) if self.demodulate is not None else color
+        if self.demodulate is not None:
+            x = self.demodulate(color, sanitize_gbuffer(frame["lr_fbeta"]), sanitize_gbuffer(frame["lr_emissive"]))
+        else:
+            x = color
         hr = []
         if self.warp_history is not None:
             reset = frame.get("reset")
@@ -196,10 +199,12 @@ class FuseSR(nn.Module):
                 state, reset = self.initial_state(frame), color.new_ones(n)
             cut = (reset > 0.5).view(n, 1, 1, 1)  # a cut history may hold anything, NaN included
             hr.append(self.warp_history(torch.where(cut, 0.0, state["history"]), sanitize_motion(frame["motion"])))
-        hr += [sanitize_depth(frame["hr_depth"]) if g == "depth" else frame[f"hr_{g}"] for g in self.config.ordered_gbuffers]
+        hr += [sanitize_depth(frame["hr_depth"]) if g == "depth" else sanitize_gbuffer(frame[f"hr_{g}"])
+               for g in self.config.ordered_gbuffers]
         packed = self.unshuffle([x, self.encode(x)], hr)
         residual = self.backbone(packed)
-        fbeta, emissive = (frame["hr_fbeta"], frame["hr_emissive"]) if self.config.demodulate else (None, None)
+        fbeta, emissive = ((sanitize_gbuffer(frame["hr_fbeta"]), sanitize_gbuffer(frame["hr_emissive"]))
+                           if self.config.demodulate else (None, None))
         output, prediction = self.remodulate(residual, x, fbeta, emissive)
         aux = {"upsampled": jittered_upsample(color, jitter, self.scale), "prediction": prediction, "l": x}
         return output, aux, ({"history": output} if self.config.history else {})

@@ -94,7 +94,7 @@ vec4 round_to_half(vec4 v) {
     return vec4(round_to_half(v.x), round_to_half(v.y), round_to_half(v.z), round_to_half(v.w));
 }
 
-// Input sanitization (ops.sanitize): every read of an engine input (colour, depth, motion) goes
+// Input sanitization (ops.sanitize): every read of an engine input (colour, depth, motion, G-buffers) goes
 // through these, so a NaN or Inf in one frame cannot reach the history.  Identity on finite values
 // of the input formats.  NaN and Inf are told apart on the bits: drivers may fold isnan / isinf
 // and x != x away under fast-math, integer tests they keep.
@@ -118,6 +118,18 @@ float sanitize_colour(float x) {
 
 vec3 sanitize_colour(vec3 c) {
     return vec3(sanitize_colour(c.x), sanitize_colour(c.y), sanitize_colour(c.z));
+}
+
+// A material G-buffer value (F_beta, emissive, normal, albedo: ops.sanitize.sanitize_gbuffer):
+// NaN -> 0, +-Inf -> +-COLOUR_MAX, finite values unchanged (an fp16 texel holds none beyond it).
+float sanitize_gbuffer(float x) {
+    if (is_nan_bits(x)) return 0.0;
+    if (is_not_finite(x)) return (floatBitsToUint(x) >> 31) != 0u ? -COLOUR_MAX : COLOUR_MAX;
+    return x;
+}
+
+vec3 sanitize_gbuffer(vec3 g) {
+    return vec3(sanitize_gbuffer(g.x), sanitize_gbuffer(g.y), sanitize_gbuffer(g.z));
 }
 
 float sanitize_depth(float d) {

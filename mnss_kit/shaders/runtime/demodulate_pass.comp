@@ -3,6 +3,7 @@
 //   in   color     LR rgba16f        jittered colour, display values
 //        fbeta     LR rgba16f        F_beta (linear)
 //        emissive  LR rgba16f        emission and sky (linear)
+//        (every input texel sanitized on read: common.glsl, ops.sanitize)
 //   out  l         LR rgba16f array  layer 0: display-encoded L (demodulation.glsl), or the
 //                                    colour itself with u_demodulate = 0
 precision highp float;
@@ -28,6 +29,7 @@ void main() {
         return;
     }
     vec3 c = colour_texel(color, p);
-    vec3 v = u_demodulate != 0 ? demodulate(c, texelFetch(fbeta, p, 0).rgb, texelFetch(emissive, p, 0).rgb) : c;
+    vec3 v = u_demodulate != 0 ? demodulate(c, sanitize_gbuffer(texelFetch(fbeta, p, 0).rgb),
+                                             sanitize_gbuffer(texelFetch(emissive, p, 0).rgb)) : c;
     imageStore(l, ivec3(p, 0), round_to_half(vec4(v, 0.0)));
 }

@@ -18,10 +18,11 @@ int gbuffer_channels(int g) {
 }
 
 float gbuffer_value(int g, ivec2 hr, int c) {
-    if (g == 0) return texelFetch(fbeta, hr, 0)[c];
-    if (g == 1) return texelFetch(normal, hr, 0)[c];
-    if (g == 2) return depth_texel(depth, hr);  // sanitized (common.glsl)
-    return texelFetch(albedo, hr, 0)[c];
+    // every G-buffer sanitized on read (common.glsl, ops.sanitize)
+    if (g == 0) return sanitize_gbuffer(texelFetch(fbeta, hr, 0)[c]);
+    if (g == 1) return sanitize_gbuffer(texelFetch(normal, hr, 0)[c]);
+    if (g == 2) return depth_texel(depth, hr);
+    return sanitize_gbuffer(texelFetch(albedo, hr, 0)[c]);
 }
 
 // Channel `c` of unshuffled HR image texel p: (channel, sub-pixel) of the HR texel it holds.

@@ -3,7 +3,7 @@
 //   in   npu_output  std430 uint[]  int8 NHWC (1, H, W, 3) from the NPU: the residual over the upsampled L
 //        l           LR rgba16f     display-encoded L (layer 0 of demodulate_pass's output)
 //        fbeta       HR rgba16f     F_beta
-//        emissive    HR rgba16f     emission and sky
+//        emissive    HR rgba16f     emission and sky (F_beta and emissive sanitized on read, common.glsl)
 //   out  history     HR rgba16f     the output, the next frame's history (rgb; a = 1)
 //        display     HR rgba8       the output as 8-bit display codes
 // HR L = clamp(L at the LR pixel + residual, 0, 1) (ops.demodulation.add_upsampled, exact in float32).
@@ -44,7 +44,7 @@ void main() {
     }
     v = clamp(texelFetch(l, ivec3(hr / u_scale, 0), 0).rgb + v, 0.0, 1.0);
     if (u_demodulate != 0) {
-        v = remodulate(v, texelFetch(fbeta, hr, 0).rgb, texelFetch(emissive, hr, 0).rgb);
+        v = remodulate(v, sanitize_gbuffer(texelFetch(fbeta, hr, 0).rgb), sanitize_gbuffer(texelFetch(emissive, hr, 0).rgb));
     }
     imageStore(history, hr, round_to_half(vec4(v, 1.0)));
     imageStore(display, hr, encode_unorm8(vec4(v, 1.0)));
