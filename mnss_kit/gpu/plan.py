@@ -8,8 +8,8 @@ carries and :mod:`.interpret` runs::
 and optionally ``"debug_views": [...]``: resources an app may show and how to colour them (the
 manifest schema's ``debug_views``).
 
-Bindings, workgroup sizes and formats come from :data:`mnss_kit.gpu.passes.PASSES`; nothing here
-restates them.  Resource names in a step's ``bind`` refer to ``resources``; ``weights:NAME`` to a
+Bindings, uniforms, workgroup sizes and formats come from :data:`mnss_kit.gpu.passes.PASSES` (one
+file per pass); nothing here restates them, and a step's uniforms must be ones its pass declares.  Resource names in a step's ``bind`` refer to ``resources``; ``weights:NAME`` to a
 block of the weight file.  Per-frame uniform values (``{"frame": KEY}``) are: ``offset`` /
 ``subpixel`` (this frame's jitter entry), ``previous_offset`` / ``previous_subpixel`` (the
 previous frame's) and ``reset`` (1 on a camera cut or the first frame, from the engine).
@@ -112,8 +112,11 @@ def groups(grid: str, local: tuple[int, int, int], lr_size: tuple[int, int], sca
 def step(name: str, label: str, stage_name: str, bind: dict, uniforms: dict, lr_size, scale, depth: int = 1,
          skip_on_reset: bool = False, words: int = 0, hr_size=None) -> dict:
     """One GPU step of the schedule: pass ``name`` for model stage ``stage_name`` (``hr_size``: the HR
-    grid's size at a fractional scale)."""
+    grid's size at a fractional scale).  ``ValueError`` for a uniform the pass does not declare."""
     spec = P.PASSES[name]
+    unknown = sorted(set(uniforms) - set(spec.uniforms))
+    if unknown:
+        raise ValueError(f"{name} declares no uniform {', '.join(unknown)} (gpu/passes/{name}.py: {', '.join(spec.uniforms)})")
     return {
         "kind": "gpu",
         "pass": name,

@@ -145,6 +145,8 @@ def test_pair_table_is_not_used_where_position_matters():
 @pytest.mark.parametrize("epilogue", ["none", "relu", "residual_clamp"])
 def test_fast_gpu_conv3x3_equals_reference(epilogue):
     from mnss_kit.emulate.fast_gpu import FastReferencePasses, conv3x3_planar
+    from mnss_kit.gpu.passes import call
+    from mnss_kit.gpu.passes.conv3x3_pass import layer_uniforms
     from mnss_kit.gpu.reference import ReferencePasses
     from mnss_kit.gpu.weights import Conv3x3
     from mnss_kit.ops.inpaint import conv3x3
@@ -155,10 +157,11 @@ def test_fast_gpu_conv3x3_equals_reference(epilogue):
         conv = Conv3x3(rng.normal(size=(cout, cin, 3, 3)).astype(np.float32), rng.normal(size=cout).astype(np.float32))
         residual = rng.random((13, 17, cout), dtype=np.float32)
         assert np.array_equal(conv3x3_planar(x, conv.weight, conv.bias), conv3x3(x, conv.weight, conv.bias))
-        expected = ReferencePasses().conv3x3(x, conv, epilogue, residual)
-        np.testing.assert_array_equal(FastReferencePasses().conv3x3(x, conv, epilogue, residual), expected)
+        conv_call = call({"x": x, "residual": residual, "weights": conv}, layer_uniforms(cin, cout, epilogue))
+        expected = ReferencePasses().run_pass("conv3x3_pass", conv_call)
+        np.testing.assert_array_equal(FastReferencePasses().run_pass("conv3x3_pass", conv_call)["y"], expected["y"])
     with pytest.raises(ValueError, match="epilogue"):
-        FastReferencePasses().conv3x3(x, conv, "gelu")
+        FastReferencePasses().run_pass("conv3x3_pass", call({"x": x, "weights": conv}, {"u_epilogue": 7}))
 
 
 @pytest.mark.parametrize("rows", [1, 2, 5])

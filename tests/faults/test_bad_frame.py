@@ -14,6 +14,7 @@ import torch
 
 from mnss_kit.dataset.loader import eval_sequences
 from mnss_kit.dataset.synthetic import write_synthetic_sequence
+from mnss_kit.gpu.passes import call, quantize_uniforms
 from mnss_kit.gpu.reference import ReferencePasses
 from mnss_kit.metrics.psnr import psnr
 from mnss_kit.model.checkpoint import load
@@ -133,13 +134,21 @@ def _run_reference(frames, scale=2):
         h, w = color.shape[:2]
         if history is None:
             history = np.zeros((h * scale, w * scale, 4), np.float32)
-        reprojected = ref.taau_reproject(history, motion, scale, t == 0, params.blur_penalty)
-        packed = ref.taau_pack(color, reprojected, scale, params.max_weight, 1.0 / 100.0, 0, "tflite-ref")
+        reprojected = ref.run_pass("taau_reproject_pass", call(
+            {"history": history, "motion": motion},
+            {"u_scale": scale, "u_reset": int(t == 0), "u_blur_penalty": params.blur_penalty}))["reprojected"]
+        packed = ref.run_pass("taau_pack_pass", call(
+            {"color": color, "reprojected": reprojected},
+            {"u_scale": scale, "u_max_weight": params.max_weight, **quantize_uniforms(1.0 / 100.0, 0, "tflite-ref")}))["npu_input"]
         assert packed.dtype == np.int8
         steering = np.zeros((1, h * scale, w * scale, 6), np.int8)  # raw 0: gains 1, no correction
-        history, display = ref.taau_accumulate(steering, color, reprojected, motion, frame["jitter"][0].numpy(), scale,
-                                               0.02, 0, 0.1, 1.5, 0.0, 0.0, params.sample_sigma, params.prior_weight,
-                                               params.max_weight)
+        out = ref.run_pass("taau_accumulate_pass", call(
+            {"npu_output": steering, "color": color, "reprojected": reprojected, "motion": motion},
+            {"u_scale": scale, "u_q_scale": 0.02, "u_q_zero_point": 0, "u_correction_bound": 0.1, "u_box_bound": 1.5,
+             "u_history_gain_min": 0.0, "u_still_motion_px": 0.0, "u_sample_sigma": params.sample_sigma,
+             "u_prior_weight": params.prior_weight, "u_max_weight": params.max_weight},
+            frame["jitter"][0].numpy(), scale=scale))
+        history, display = out["history"], out["display"]
         assert np.all(np.isfinite(reprojected)) and np.all(np.isfinite(history))
         psnrs.append(psnr(display.astype(np.float32) / 255.0, _image(frame["reference"])))
     return psnrs

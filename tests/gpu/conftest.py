@@ -1,8 +1,10 @@
-"""One Mesa (EGL) context for the whole session, and the numpy reference passes."""
+"""One Mesa (EGL) context for the whole session, and the numpy reference passes; both with the
+positional pass methods of ``pass_calls.NamedPasses``."""
 
 from __future__ import annotations
 
 import pytest
+from pass_calls import NamedPasses
 
 from mnss_kit.gpu.reference import ReferencePasses
 
@@ -11,9 +13,9 @@ from mnss_kit.gpu.reference import ReferencePasses
 def mesa():
     from mnss_kit.gpu.mesa import MesaPasses
 
-    return MesaPasses()
+    return NamedPasses(MesaPasses())
 
 
 @pytest.fixture(scope="session")
 def ref():
-    return ReferencePasses()
+    return NamedPasses(ReferencePasses())

@@ -1,15 +1,20 @@
 """The runtime shader files: flattening, ES 3.10 validity (glslangValidator) and agreement of
-every declaration with the pass table the harness and the bundle manifest use."""
+every declaration with the pass records the harness and the bundle manifest use; one record file
+per pass, naming only its own uniforms."""
 
 from __future__ import annotations
 
+import ast
+import importlib
 import re
 import shutil
 import subprocess
+from pathlib import Path
 
 import pytest
 
 from mnss_kit.gpu import glsl
+from mnss_kit.gpu import passes as passes_package
 from mnss_kit.gpu.passes import PASSES
 
 ENTRIES = sorted(p.entry for p in PASSES.values())
@@ -78,3 +83,33 @@ def test_shader_declarations_match_the_pass_table(name):
     assert set(UNIFORM.findall(text)) == set(spec.uniforms)
     x, y, z = LOCAL_SIZE.search(text).groups()
     assert (int(x), int(y or 1), int(z or 1)) == spec.local_size
+
+
+PASS_DIR = Path(passes_package.__file__).parent
+
+
+def test_every_pass_file_is_in_the_table_and_every_entry_has_a_file():
+    files = sorted(p.stem for p in PASS_DIR.glob("*_pass.py"))
+    assert files == sorted(PASSES)
+    for name, spec in PASSES.items():
+        module = importlib.import_module(f"mnss_kit.gpu.passes.{name}")
+        assert module.PASS is spec
+        assert spec.reference is not None and spec.outputs is not None, name
+
+
+@pytest.mark.parametrize("name", sorted(PASSES))
+def test_a_pass_file_names_only_its_declared_uniforms(name):
+    """Uniform names are declared once, in the pass's record; its reference reads only those."""
+    tree = ast.parse((PASS_DIR / f"{name}.py").read_text())
+    named = {n.value for n in ast.walk(tree) if isinstance(n, ast.Constant) and isinstance(n.value, str)
+             and re.fullmatch(r"u_\w+", n.value)}
+    assert named <= set(PASSES[name].uniforms)
+
+
+def test_a_schedule_step_takes_only_declared_uniforms():
+    from mnss_kit.gpu.plan import const, step
+
+    ok = step("sharpen_pass", "sharpen", "enhance", {"image": "history", "display": "display"}, {"u_beta": const(0.1)}, (4, 4), 2)
+    assert ok["uniforms"] == {"u_beta": {"value": 0.1}}
+    with pytest.raises(ValueError, match="sharpen_pass declares no uniform u_gain"):
+        step("sharpen_pass", "sharpen", "enhance", {}, {"u_beta": const(0.1), "u_gain": const(1.0)}, (4, 4), 2)

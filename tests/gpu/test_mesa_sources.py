@@ -10,6 +10,7 @@ from mnss_kit.gpu.glsl import flatten
 from mnss_kit.gpu.passes import PASSES
 
 from gpu_helpers import random_conv
+from pass_calls import NamedPasses
 
 
 def test_given_source_is_what_runs(mesa, tmp_path):
@@ -23,7 +24,7 @@ def test_given_source_is_what_runs(mesa, tmp_path):
     path.write_text(edited)
     image = np.full((8, 8, 3), 0.5, np.float32)
     assert mesa.sharpen(image, 0.15).max() > 0
-    passes = MesaPasses(mesa.ctx, sources={"sharpen_pass": path})
+    passes = NamedPasses(MesaPasses(mesa.ctx, sources={"sharpen_pass": path}))
     assert passes.sharpen(image, 0.15).max() == 0
     with pytest.raises(UserError, match="no shader source for GPU pass conv3x3_pass"):
         passes.conv3x3(image[..., :3], random_conv(np.random.default_rng(0), 3, 3), "none")
@@ -33,11 +34,11 @@ def test_text_sources_and_compile_errors_name_their_origin(mesa, tmp_path):
     from mnss_kit.gpu.mesa import MesaPasses
 
     image = np.full((4, 4, 3), 0.25, np.float32)
-    text = MesaPasses(mesa.ctx, sources={"sharpen_pass": flatten(PASSES["sharpen_pass"].entry)})
+    text = NamedPasses(MesaPasses(mesa.ctx, sources={"sharpen_pass": flatten(PASSES["sharpen_pass"].entry)}))
     np.testing.assert_array_equal(text.sharpen(image, 0.15), mesa.sharpen(image, 0.15))
     broken = tmp_path / "broken.comp"
     broken.write_text("#version 310 es\nvoid main() { this is not glsl; }\n")
     with pytest.raises(UserError, match=r"broken\.comp: does not compile"):
-        MesaPasses(mesa.ctx, sources={"sharpen_pass": broken}).sharpen(image, 0.15)
+        NamedPasses(MesaPasses(mesa.ctx, sources={"sharpen_pass": broken})).sharpen(image, 0.15)
     with pytest.raises(UserError, match=r"missing\.comp: cannot read"):
-        MesaPasses(mesa.ctx, sources={"sharpen_pass": tmp_path / "missing.comp"}).sharpen(image, 0.15)
+        NamedPasses(MesaPasses(mesa.ctx, sources={"sharpen_pass": tmp_path / "missing.comp"})).sharpen(image, 0.15)

@@ -3,7 +3,7 @@
 Per frame: ``warp_pass`` (hybrid; skipped on a reset), ``demodulate_pass`` (L, or the colour
 copied when demodulation is off), ``conv3x3_pass`` (the LR encoder), ``gbuffer_pack_pass``
 (the int8 NPU input at LR), the NPU backbone, ``remodulate_pass`` (display and history).  The
-building blocks are :mod:`mnss_kit.gpu.plan`'s; the passes are the library's (``gpu/passes.py``).
+building blocks are :mod:`mnss_kit.gpu.plan`'s; the passes are the library's (``gpu/passes/``, one file per pass).
 """
 
 from __future__ import annotations

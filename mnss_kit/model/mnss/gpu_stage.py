@@ -5,8 +5,9 @@
     (NPU)        model.recon on (1, H, W, 3) int8 NHWC; its graph does the space-to-depth
     after_npu    unpack_history_pass, sharpen_pass (with enhancement) -> history, display
 
-``passes`` is a :class:`~.reference.ReferencePasses` (the emulator) or a
-:class:`~.mesa.MesaPasses` (the shader files on Mesa).  Frames and states are numpy:
+``passes`` is a :class:`~mnss_kit.gpu.reference.ReferencePasses` (the emulator) or a
+:class:`~mnss_kit.gpu.mesa.MesaPasses` (the shader files on Mesa), each pass run through its
+``run_pass``.  Frames and states are numpy:
 
     frame  color (h,w,3), depth (h,w,1), motion (h,w,2) LR pixels, jitter (2,), reset bool
     state  history (H,W,3), depth (h,w,1), jitter (2,) of the previous frame; None = reset
@@ -20,6 +21,8 @@ import numpy as np
 
 from ...errors import UserError
 from .config import MNSSConfig, aa_input_channels
+from ...gpu.passes import ACTIVATION_CODES, WEIGHT_UPSAMPLE_CODES, call, dequantize_uniforms, quantize_uniforms
+from ...gpu.passes.conv3x3_pass import layer_uniforms
 from ...gpu.plan import NpuBoundary
 from ...gpu.weights import Conv3x3
 
@@ -61,28 +64,41 @@ def before_npu(passes, stage: GpuStage, frame: dict, state: dict | None, boundar
     s = stage.scale
     color, jitter = frame["color"], frame["jitter"]
     reset = state is None or bool(frame.get("reset", False)) or not stage.with_history
+    previous = None if state is None else state["jitter"]
+
+    def run(name: str, read: dict, uniforms: dict) -> dict:
+        return passes.run_pass(name, call(read, uniforms, jitter, previous, s, boundary.profile))
+
     warped = lr_weight = None
     if not reset:
-        warped, warped_depth = passes.warp(state["history"], state["depth"], frame["motion"], state["jitter"], jitter, s)
-        conv = stage.weights.inpaint
-        lr_weight = passes.inpaint_weights(color, frame["depth"], warped, warped_depth, jitter, s, conv, stage.activation)
-    rectified = passes.inpaint_blend(color, warped, lr_weight, jitter, s, stage.weight_upsample, reset)
-    x = passes.avgpool(rectified, color, jitter, s, stage.weights.aa_history_at_samples)
+        out = run("warp_pass", {"history": state["history"], "prev_depth": state["depth"], "motion": frame["motion"]}, {"u_scale": s})
+        warped = out["warped"]
+        lr_weight = run("inpaint_weights_pass", {"color": color, "depth": frame["depth"], "warped": warped,
+                                                 "warped_depth": out["warped_depth"], "weights": stage.weights.inpaint},
+                        {"u_scale": s, "u_activation": ACTIVATION_CODES[stage.activation]})["lr_weight"]
+    rectified = run("inpaint_blend_pass", {"color": color, "warped": warped, "lr_weight": lr_weight},
+                    {"u_scale": s, "u_weight_upsample": WEIGHT_UPSAMPLE_CODES[stage.weight_upsample], "u_reset": int(reset)})["rectified"]
+    x = run("avgpool_pass", {"rectified": rectified, "color": color},
+            {"u_scale": s, "u_history_at_samples": int(stage.weights.aa_history_at_samples)})["aa_input"]
     layers = stage.weights.aa
     for i, conv in enumerate(layers):
         last = i == len(layers) - 1
-        x = passes.conv3x3(x, conv, "residual_clamp" if last else "relu", color if last else None)
-    npu_input = passes.insert_pack(
-        rectified, x, jitter, s, boundary.input_scale, boundary.input_zero_point, boundary.profile
-    )
+        x = run("conv3x3_pass", {"x": x, "residual": color if last else None, "weights": conv},
+                layer_uniforms(conv.in_channels, conv.out_channels, "residual_clamp" if last else "relu"))["y"]
+    hh, hw = rectified.shape[:2]
+    npu_input = run("insert_pack_pass", {"rectified": rectified, "aa": x},
+                    {"u_scale": s, "u_word_count": -(-hh * hw * 3 // 4),
+                     **quantize_uniforms(boundary.input_scale, boundary.input_zero_point, boundary.profile)})["npu_input"]
     return {"npu_input": npu_input, "warped": warped, "lr_weight": lr_weight, "rectified": rectified, "aa": x}
 
 
 def after_npu(passes, stage: GpuStage, npu_output: np.ndarray, boundary: NpuBoundary) -> tuple[np.ndarray, np.ndarray]:
     """The passes after the NPU: int8 (1,H,W,3) -> (history (H,W,3) fp16 values, display (H,W,3) uint8)."""
-    history, display = passes.unpack_history(npu_output, boundary.output_scale, boundary.output_zero_point)
+    out = passes.run_pass("unpack_history_pass", call({"npu_output": npu_output},
+                                                      dequantize_uniforms(boundary.output_scale, boundary.output_zero_point)))
+    history, display = out["history"], out["display"]
     if stage.enhance_beta is not None:
-        display = passes.sharpen(history, stage.enhance_beta)
+        display = passes.run_pass("sharpen_pass", call({"image": history}, {"u_beta": float(np.float32(stage.enhance_beta))}))["display"]
     return history, display
 
 
