@@ -57,6 +57,11 @@ def sanitize_motion(motion: torch.Tensor) -> torch.Tensor:
     return torch.where(torch.isfinite(motion), motion, torch.zeros_like(motion))
 
 
+def colour_not_finite(color: torch.Tensor) -> torch.Tensor:
+    """``ops.sanitize.colour_not_finite`` in torch: (N,C,h,w) -> (N,1,h,w) bool, a channel NaN or +-Inf."""
+    return (~torch.isfinite(color)).any(dim=1, keepdim=True)
+
+
 def sanitize_gbuffer(gbuffer: torch.Tensor) -> torch.Tensor:
     """``ops.sanitize.sanitize_gbuffer`` in torch: NaN -> 0, +-Inf -> +-COLOUR_MAX, finite values unchanged."""
     return torch.nan_to_num(gbuffer, nan=0.0, posinf=COLOUR_MAX, neginf=-COLOUR_MAX)

@@ -75,13 +75,17 @@ def lr_weights(
     bias: np.ndarray,
     activation: str = "sigmoid",
     conv=conv3x3,
+    invalid: np.ndarray | None = None,
 ) -> np.ndarray:
     """LR weights ``(h, w, 1)`` float32 in [0, 1]: 1 = take the current frame, 0 = keep the history.
 
     ``weight`` ``(1, 4, 3, 3)`` and ``bias`` ``(1,)`` are the learned conv.  ``conv`` computes
-    it: :func:`conv3x3` or an implementation with identical values (a faster one).
+    it: :func:`conv3x3` or an implementation with identical values (a faster one).  ``invalid``
+    ``(h, w, 1)`` bool (``ops.sanitize.colour_not_finite`` of the engine's colour) or None: those
+    samples are no samples, their weight is 0 (the history is kept).
     """
-    return activate(conv(difference(color, depth, past_color, past_depth), weight, bias), activation)
+    lr = activate(conv(difference(color, depth, past_color, past_depth), weight, bias), activation)
+    return lr if invalid is None else np.where(invalid, np.float32(0), lr).astype(np.float32)
 
 
 def weight_map(lr: np.ndarray, jitter: tuple[float, float], scale: int, mode: str = "bilinear") -> np.ndarray:

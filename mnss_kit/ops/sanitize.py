@@ -23,6 +23,11 @@ on finite inputs is bit-identical with or without it.
   "about zero", the pixel is not demodulated and remodulates to its emissive alone.
 
 Values are float32 throughout; the input's dtype is kept.
+
+A sanitized colour is a guess, not a sample.  A family whose history would keep the guess says
+where it was made (:func:`colour_not_finite`) and treats that sample as no sample: MNSS keeps the
+warped history there (its inpainting weight is 0) and inserts no anti-aliased value at its
+sub-pixel (the AA pass writes ``NO_SAMPLE`` there, ``ops.subpixel.insert_valid_samples`` skips it).
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ import numpy as np
 
 COLOUR_MAX = 65504.0  # the largest finite IEEE binary16
 FAR_DEPTH = 1.0       # canonical depth of the far plane (ops.conventions)
+NO_SAMPLE = -1.0      # a display value in [0, 1] never is: marks an LR sample that is no sample
 
 
 def sanitize_colour(color: np.ndarray) -> np.ndarray:
@@ -55,3 +61,9 @@ def sanitize_gbuffer(gbuffer: np.ndarray) -> np.ndarray:
     """A material G-buffer (any shape), NaN -> 0, +-Inf -> +-COLOUR_MAX; finite values unchanged."""
     x = np.asarray(gbuffer)
     return np.where(np.isnan(x), 0.0, np.where(np.isinf(x), np.copysign(COLOUR_MAX, x), x)).astype(x.dtype)
+
+
+def colour_not_finite(color: np.ndarray) -> np.ndarray:
+    """``(..., C)`` colour -> ``(..., 1)`` bool: NaN or +-Inf in any of its first three channels (rgb)."""
+    x = np.asarray(color)
+    return ~np.all(np.isfinite(x[..., :3]), axis=-1, keepdims=True)

@@ -34,6 +34,14 @@ def insert_samples(hr: np.ndarray, lr: np.ndarray, jitter: tuple[float, float], 
     return out
 
 
+def insert_valid_samples(hr: np.ndarray, lr: np.ndarray, jitter: tuple[float, float], scale: int) -> np.ndarray:
+    """:func:`insert_samples`, except the LR texels whose first channel is negative
+    (``ops.sanitize.NO_SAMPLE``: no sample there) leave ``hr`` as it is."""
+    lr = np.asarray(lr, np.float32)
+    keep = extract_samples(np.asarray(hr, np.float32), jitter, scale)
+    return insert_samples(hr, np.where(lr[..., :1] < 0, keep, lr), jitter, scale)
+
+
 def jittered_upsample(lr: np.ndarray, jitter: tuple[float, float], scale: int) -> np.ndarray:
     """``I_U`` of MNSS: LR samples at their sampled HR positions, the rest bilinearly filled.
 

@@ -123,3 +123,40 @@ def test_history_reset_and_enhancement_match_model():
     with torch.no_grad():
         enhanced = hwc(model.enhance(nchw(dequantized)))
     assert np.abs(display.astype(int) - encode_unorm8(enhanced)).max() <= 1
+
+
+@pytest.mark.parametrize("reset", [False, True], ids=["history", "reset"])
+def test_reference_gpu_stage_matches_model_on_a_bad_frame(reset):
+    """NaN colour texels (whole, and in one channel) are no samples, in the model and the GPU stage
+    alike: inpainting weight 0 (I_R is the warped history there), no I_AA inserted; every value
+    finite and within the stated tolerances (I_AA where a sample was inserted)."""
+    from mnss_kit.model.taau import colour_not_finite, sanitize_colour
+    from mnss_kit.ops.sanitize import NO_SAMPLE
+
+    model, stage = tiny_model()
+    frame, state = inputs(stage.scale, 1, seed=5)
+    frame["reset"] = reset
+    frame["color"][2:4, 3:6] = np.nan
+    frame["color"][6, 1, 2] = np.nan
+    got = before_npu(ReferencePasses(), stage, frame, state, BOUNDARY)
+    raw = nchw(frame["color"])
+    invalid = colour_not_finite(raw)
+    jitter, prev_jitter = torch.from_numpy(frame["jitter"])[None], torch.from_numpy(state["jitter"])[None]
+    color, depth = sanitize_colour(raw), nchw(frame["depth"])
+    with torch.no_grad():
+        warped, warped_depth = model.warp(nchw(state["history"]), nchw(state["depth"]), prev_jitter, nchw(frame["motion"]))
+        rectified, weight, _ = model.inpaint(color, depth, jitter, warped, warped_depth, torch.full((1, 1, 1, 1), reset),
+                                             invalid)
+        aa = model.aa(rectified, color, jitter)
+        inserted = model.insert(rectified, aa, jitter, invalid)
+    bad = hwc(invalid)[..., 0]
+    assert not reset or float(weight.min()) == 1.0
+    if not reset:
+        assert np.all(got["lr_weight"][bad] == 0)
+        assert np.abs(got["warped"] - hwc(warped)).max() <= TOLERANCE["warped"]
+    assert np.abs(got["rectified"] - hwc(rectified)).max() <= TOLERANCE["rectified"]
+    assert np.all(got["aa"][bad] == NO_SAMPLE)
+    assert np.abs(got["aa"][~bad] - hwc(aa)[~bad]).max() <= TOLERANCE["aa"]
+    q = quant.quantize(hwc(inserted), BOUNDARY.input_scale, BOUNDARY.input_zero_point, "int8", BOUNDARY.profile)[None]
+    off = np.abs(got["npu_input"].astype(int) - q)
+    assert off.max() <= 1 and off.mean() <= 0.1

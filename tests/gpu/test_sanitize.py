@@ -196,3 +196,39 @@ def test_fusesr_passes_sanitize_their_inputs(gl, ref, demodulate):
     assert np.array_equal(mesa.gbuffer_pack(*args), ref.gbuffer_pack(*args))
     far = ref.gbuffer_pack(*args[:3], {"depth": np.ones_like(depth)}, *args[4:])
     assert np.array_equal(ref.gbuffer_pack(*args)[..., 4:].reshape(-1)[:4], far[..., 4:].reshape(-1)[:4])
+
+
+@pytest.mark.parametrize("scale", [2, 3])
+def test_mnss_keeps_the_history_at_a_non_finite_sample(gl, ref, scale):
+    """A colour texel with NaN or Inf in any channel is no sample for MNSS: its inpainting weight is
+    0, the AA net's last layer writes NO_SAMPLE there and insert + pack leaves the rectified history
+    at its sub-pixel; Mesa and the reference agree, and the int8 NPU input is bit for bit theirs."""
+    from mnss_kit.ops import subpixel
+    from mnss_kit.ops.sanitize import NO_SAMPLE, colour_not_finite
+
+    mesa = gl
+    rng = np.random.default_rng(41 * scale)
+    f = random_frame(rng, H, W, scale, motion_scale=0.5)
+    color, _, _ = _bad_frame(scale)
+    invalid = colour_not_finite(color)[..., 0]
+    assert 0 < invalid.sum() < invalid.size
+    jitter, prev = (0.25, -0.25), (-0.25, 0.25)
+    warped, warped_depth = ref.warp(f["history"], f["prev_depth"], f["motion"], prev, jitter, scale)
+    conv = random_conv(rng, 1, 4)
+    args = (color, f["depth"], warped, warped_depth, jitter, scale, conv, "sigmoid")
+    lr_weight, got = ref.inpaint_weights(*args), mesa.inpaint_weights(*args)
+    assert np.all(lr_weight[invalid] == 0) and np.all(got[invalid] == 0)
+    assert_float_close(got, lr_weight)
+    x = to_half(rng.random((H, W, 9), dtype=np.float32))
+    last = random_conv(rng, 3, 9)
+    aa, got = ref.conv3x3(x, last, "residual_clamp", color), mesa.conv3x3(x, last, "residual_clamp", color)
+    assert np.all(aa[invalid] == NO_SAMPLE) and np.all(got[invalid] == NO_SAMPLE)
+    assert np.all((aa[~invalid] >= 0) & (aa[~invalid] <= 1))
+    assert_float_close(got, aa)
+    rectified = to_half(rng.random((H * scale, W * scale, 3), dtype=np.float32))
+    args = (rectified, aa, jitter, scale, 1.0 / 255.0, -128, "tflite-ref")
+    packed = ref.insert_pack(*args)
+    assert np.array_equal(mesa.insert_pack(*args), packed)
+    # the tensor of inserting the history's own values at the bad samples
+    kept = np.where(invalid[..., None], subpixel.extract_samples(rectified, jitter, scale), aa)
+    assert np.array_equal(packed, ref.insert_pack(rectified, kept, jitter, scale, 1.0 / 255.0, -128, "tflite-ref"))

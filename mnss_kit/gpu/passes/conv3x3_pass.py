@@ -1,11 +1,12 @@
 """conv3x3_pass: one learned 3x3 conv on an LR array texture (the AA net runs it once per layer),
-with its epilogue: none, relu, or ``clamp(residual + conv, 0, 1)``."""
+with its epilogue: none, relu, or ``clamp(residual + conv, 0, 1)`` (``ops.sanitize.NO_SAMPLE`` where the
+residual, the engine's colour, is not finite: no sample there)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ...ops.sanitize import sanitize_colour
+from ...ops.sanitize import NO_SAMPLE, colour_not_finite, sanitize_colour
 from ..storage import to_half
 from ..weights import layers_of
 from .record import Call, Pass, buffer, image, sampler
@@ -28,7 +29,9 @@ def reference(c: Call) -> dict:
     if epilogue == "relu":
         acc = np.maximum(acc, np.float32(0))
     elif epilogue == "residual_clamp":
-        acc = np.clip(sanitize_colour(to_half(c.read["residual"])) + acc, np.float32(0), np.float32(1))
+        residual = c.read["residual"]
+        acc = np.clip(sanitize_colour(to_half(residual)) + acc, np.float32(0), np.float32(1))
+        acc = np.where(colour_not_finite(residual), np.float32(NO_SAMPLE), acc)
     return {"y": to_half(acc)}
 
 

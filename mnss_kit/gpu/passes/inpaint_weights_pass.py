@@ -1,10 +1,11 @@
 """inpaint_weights_pass: the LR inpainting weights (``ops.inpaint.lr_weights``): a learned 3x3 conv
-on the colour, depth and the warped history and depth at this frame's samples, then an activation."""
+on the colour, depth and the warped history and depth at this frame's samples, then an activation;
+0 where the engine's colour is not finite (no sample: the history is kept, ``ops.sanitize``)."""
 
 from __future__ import annotations
 
 from ...ops import inpaint, subpixel
-from ...ops.sanitize import sanitize_colour, sanitize_depth
+from ...ops.sanitize import colour_not_finite, sanitize_colour, sanitize_depth
 from ..storage import to_half
 from .record import Call, Pass, buffer, image, sampler
 
@@ -17,7 +18,8 @@ def reference(c: Call) -> dict:
     r, scale, conv = c.read, c.u("u_scale"), c.weights["weights"]
     past = subpixel.extract_samples(to_half(r["warped"]), c.offset, scale)
     weight = inpaint.lr_weights(sanitize_colour(to_half(r["color"])), sanitize_depth(r["depth"]), past, r["warped_depth"],
-                                conv.weight, conv.bias, ACTIVATIONS[c.u("u_activation")], c.conv)
+                                conv.weight, conv.bias, ACTIVATIONS[c.u("u_activation")], c.conv,
+                                colour_not_finite(r["color"]))
     return {"lr_weight": weight}
 
 

@@ -1,5 +1,6 @@
 """insert_pack_pass: the AA net's output inserted into the rectified history at this frame's
-sampled sub-pixels (``ops.subpixel.insert_samples``), quantized to the int8 NPU input."""
+sampled sub-pixels (``ops.subpixel.insert_valid_samples``: not where the AA pass wrote
+``ops.sanitize.NO_SAMPLE``), quantized to the int8 NPU input."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from .record import Call, Pass, buffer, sampler
 
 def reference(c: Call) -> dict:
     """rectified (H,W,3), aa (h,w,3) -> npu_input (1,H,W,3) int8, ``ops.int8.quantize.quantize`` under the profile."""
-    image = subpixel.insert_samples(to_half(c.read["rectified"]), to_half(c.read["aa"]), c.offset, c.u("u_scale"))
+    image = subpixel.insert_valid_samples(to_half(c.read["rectified"]), to_half(c.read["aa"]), c.offset, c.u("u_scale"))
     return {"npu_input": quant.quantize(image, c.u("u_q_scale"), c.u("u_q_zero_point"), "int8", c.profile)[None]}
 
 

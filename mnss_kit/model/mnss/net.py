@@ -18,6 +18,11 @@ Per frame, with scale ``s``, LR size ``h x w`` and HR size ``H x W = sh x sw``:
 State: ``history`` (N,3,H,W), and the previous frame's LR ``depth`` (N,1,h,w) and ``jitter``
 (N,2); the previous depth is upsampled like I_U, with its own jitter.  A reset frame (camera cut,
 first frame) forces M_w = 1, so the history is ignored.
+
+A sample whose engine colour is not finite (NaN or Inf in any channel, ``ops.sanitize``) is no
+sample: its LR inpainting weight is 0 (the warped history is kept there) and I_AA is not inserted
+at its sub-pixel (the rectified history stays), so one bad frame never puts the sanitized value
+into the history.  On finite inputs nothing changes.
 """
 
 from __future__ import annotations
@@ -39,7 +44,7 @@ from ..layers import (
     upsample_motion,
     warp_bilinear,
 )
-from ..taau import sanitize_colour, sanitize_depth, sanitize_motion
+from ..taau import colour_not_finite, sanitize_colour, sanitize_depth, sanitize_motion
 from ...ops.warp import OFFSCREEN_DEPTH
 
 STAGE_ORDER = ("warp", "inpaint", "aa", "insert", "recon", "enhance")
@@ -92,13 +97,16 @@ class Inpaint(nn.Module):
         x = self.conv(torch.cat([(color - past_color).abs(), (depth - past_depth).abs()], dim=1))
         return torch.sigmoid(x) if self.activation == "sigmoid" else torch.clamp(torch.tanh(x), 0.0, 1.0)
 
-    def forward(self, color, depth, jitter, warped, warped_depth, reset):
+    def forward(self, color, depth, jitter, warped, warped_depth, reset, invalid=None):
         """LR colour (N,3,h,w), depth (N,1,h,w), jitter (N,2), I_W, D_W (or None: no history),
-        reset (N,1,1,1) bool -> (I_R (N,3,H,W), M_w (N,1,H,W), I_U (N,3,H,W))."""
+        reset (N,1,1,1) bool, ``invalid`` (N,1,h,w) bool or None: samples that are no samples
+        (weight 0) -> (I_R (N,3,H,W), M_w (N,1,H,W), I_U (N,3,H,W))."""
         upsampled = jittered_upsample(color, jitter, self.scale)
         if warped is None:
             return upsampled, torch.ones_like(upsampled[:, :1]), upsampled
         lr = self.lr_weights(color, depth, jitter, warped, warped_depth)
+        if invalid is not None:
+            lr = torch.where(invalid, 0.0, lr)
         if self.weight_upsample == "nearest":
             weight = torch.repeat_interleave(torch.repeat_interleave(lr, self.scale, dim=2), self.scale, dim=3)
         else:  # the LR weights belong to the jittered sample positions
@@ -143,8 +151,11 @@ class Insert(nn.Module):
         super().__init__()
         self.scale = scale
 
-    def forward(self, rectified, aa, jitter):
-        """I_R (N,3,H,W), I_AA (N,3,h,w), jitter (N,2) -> (N,3,H,W)."""
+    def forward(self, rectified, aa, jitter, invalid=None):
+        """I_R (N,3,H,W), I_AA (N,3,h,w), jitter (N,2), ``invalid`` (N,1,h,w) bool or None: samples
+        not inserted -> (N,3,H,W)."""
+        if invalid is not None:
+            aa = torch.where(invalid, extract_samples(rectified, jitter, self.scale), aa)
         return insert_samples(rectified, aa, jitter, self.scale)
 
 
@@ -231,6 +242,7 @@ class MNSS(nn.Module):
         check_frame(frame, FRAME_SHAPES, self.scale, "mnss")
         # one bad frame costs one frame: NaN / Inf inputs never reach the history (ops.sanitize)
         color, depth, motion = sanitize_colour(frame["color"]), sanitize_depth(frame["depth"]), sanitize_motion(frame["motion"])
+        invalid = colour_not_finite(frame["color"])  # no sample: keep the history there
         jitter = frame["jitter"]
         n = color.shape[0]
         reset = frame.get("reset")
@@ -244,9 +256,9 @@ class MNSS(nn.Module):
             prev_depth = torch.where(cut, 0.0, state["depth"])
             prev_jitter = torch.where(cut.view(n, 1), 0.0, state["jitter"])
             warped, warped_depth = self.warp(history, prev_depth, prev_jitter, motion)
-        rectified, weight_map, upsampled = self.inpaint(color, depth, jitter, warped, warped_depth, cut)
+        rectified, weight_map, upsampled = self.inpaint(color, depth, jitter, warped, warped_depth, cut, invalid)
         aa = self.aa(rectified, color, jitter)
-        recon = self.recon(self.insert(rectified, aa, jitter))
+        recon = self.recon(self.insert(rectified, aa, jitter, invalid))
         output = self.enhance(recon) if self.enhance is not None else recon
         aux = {"aa": aa, "weight_map": weight_map, "history": rectified, "upsampled": upsampled, "recon": recon}
         next_history = recon if self.config.history == "output" else upsampled

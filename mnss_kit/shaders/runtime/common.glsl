@@ -144,6 +144,15 @@ vec2 sanitize_motion(vec2 m) {
     return vec2(sanitize_motion(m.x), sanitize_motion(m.y));
 }
 
+// A colour texel with NaN or +-Inf in r, g or b (ops.sanitize.colour_not_finite): its sanitized
+// value is a guess, not a sample.  MNSS keeps the history there: inpainting weight 0, and the AA
+// pass writes NO_SAMPLE, which insert + pack does not insert.
+const float NO_SAMPLE = -1.0;  // ops.sanitize.NO_SAMPLE
+
+bool colour_not_finite(vec3 c) {
+    return is_not_finite(c.x) || is_not_finite(c.y) || is_not_finite(c.z);
+}
+
 // The sanitized LR colour (rgb), depth and motion at texel `p`.
 vec3 colour_texel(highp sampler2D color, ivec2 p) {
     return sanitize_colour(texelFetch(color, p, 0).rgb);

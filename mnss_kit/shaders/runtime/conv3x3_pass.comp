@@ -1,7 +1,8 @@
 #version 310 es
 // conv3x3_pass: one invocation per LR texel and output layer (z); chain it for a conv stack.
 //   in   x         LR rgba16f array  input channels, 4 per layer (unused channels 0)
-//        residual  LR rgba16f        added by EPILOGUE_RESIDUAL_CLAMP (the LR colour)
+//        residual  LR rgba16f        added by EPILOGUE_RESIDUAL_CLAMP (the LR colour; where it is
+//                                    not finite the output is NO_SAMPLE, common.glsl)
 //        weights   std430 vec4[]     packed float32 bias and weights (conv3x3.glsl)
 //   out  y         LR rgba16f array  output channels, 4 per layer
 precision highp float;
@@ -33,6 +34,10 @@ void main() {
         return;
     }
     vec4 acc = conv3x3_at(x, id.xy, id.z, u_in_layers, u_out_layers);
-    vec4 res = u_epilogue == EPILOGUE_RESIDUAL_CLAMP ? sanitize_colour(texelFetch(residual, id.xy, 0)) : vec4(0.0);
-    imageStore(y, id, round_to_half(conv3x3_epilogue(acc, u_epilogue, res)));
+    vec4 raw = u_epilogue == EPILOGUE_RESIDUAL_CLAMP ? texelFetch(residual, id.xy, 0) : vec4(0.0);
+    vec4 v = conv3x3_epilogue(acc, u_epilogue, sanitize_colour(raw));
+    if (u_epilogue == EPILOGUE_RESIDUAL_CLAMP && colour_not_finite(raw.rgb)) {
+        v = vec4(NO_SAMPLE);
+    }
+    imageStore(y, id, round_to_half(v));
 }

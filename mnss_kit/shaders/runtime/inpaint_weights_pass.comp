@@ -5,7 +5,8 @@
 //        warped        HR rgba16f      I_W (warp_pass)
 //        warped_depth  LR r32f         D_W at the sampled sub-pixels (warp_pass)
 //        weights       std430 vec4[]   the learned 3x3 conv, 4 -> 1 channels (conv3x3.glsl)
-//   out  lr_weight     LR r32f         LR weights in [0, 1] (ES 3.10 has no r16f image format)
+//   out  lr_weight     LR r32f         LR weights in [0, 1] (ES 3.10 has no r16f image format); 0
+//                                      where the colour is not finite (no sample: keep the history)
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -36,5 +37,8 @@ void main() {
         return;
     }
     float w = inpaint_lr_weight(color, depth, warped, warped_depth, p, u_subpixel, u_scale, u_activation);
+    if (colour_not_finite(texelFetch(color, p, 0).rgb)) {
+        w = 0.0;
+    }
     imageStore(lr_weight, p, vec4(w, 0.0, 0.0, 0.0));
 }

@@ -1,7 +1,8 @@
 // Insert + pack (MNSS): I_AA written into the rectified history at this frame's sampled
 // sub-pixels, quantized to the int8 NPU input, NHWC (1, H, W, 3), four bytes per 32-bit word
 // (little-endian, so the buffer's bytes are the tensor).  Binding-free; mirrors
-// ops.subpixel.insert_samples and ops.int8.quantize.quantize.
+// ops.subpixel.insert_valid_samples (an I_AA texel of NO_SAMPLE, below 0, is not inserted) and
+// ops.int8.quantize.quantize.
 
 #include "common.glsl"
 #include "quant.glsl"
@@ -9,7 +10,10 @@
 // Channel `c` of the NPU input's HR pixel `hr`.
 float npu_input_value(highp sampler2D rectified, highp sampler2DArray aa, ivec2 hr, int c, ivec2 subpixel, int scale) {
     if (is_sampled(hr, subpixel, scale)) {
-        return texelFetch(aa, ivec3(hr / scale, 0), 0)[c];
+        vec4 value = texelFetch(aa, ivec3(hr / scale, 0), 0);
+        if (value.r >= 0.0) {
+            return value[c];
+        }
     }
     return texelFetch(rectified, hr, 0)[c];
 }
