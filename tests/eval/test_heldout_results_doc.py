@@ -38,16 +38,22 @@ def test_checks_state_each_target_with_its_numbers(script):
     assert "fast fast 31.05 dB against TAAU 30.75 (beats it)" in lines[2]
 
 
+def fake_costs(doc: dict) -> dict:
+    return {"net": {"device_ms": {"phone_a": 2.5, "phone_b": 3.25}}, "fast": {"device_ms": {"phone_a": 1.0, "phone_b": 1.5}}}
+
+
 def test_the_readme_table_is_replaced_between_its_markers(script, tmp_path, monkeypatch):
     readme = tmp_path / "README.md"
     start, end = script.README_BLOCK
     readme.write_text(f"intro\n\n{start}\n| old | table |\n{end}\n\nafter\n")
     monkeypatch.setattr(script, "README", readme)
+    monkeypatch.setattr(script, "model_costs", fake_costs)
     script.update_readme(results())
     text = readme.read_text()
     assert "| old | table |" not in text
     assert text.startswith("intro\n\n" + start + "\n| set / inputs | `net` | `fast` | taau | bicubic |")
-    assert "| `unseen_x2`, mnss | 31.50 | 31.05 | 30.75 | 29.50 |\n" + end + "\n\nafter\n" in text
+    assert "| `unseen_x2`, mnss | 31.50 | 31.05 | 30.75 | 29.50 |\n| est. ms at 1280x720, phone_a | 2.50 | 1.00 | | |\n" in text
+    assert "| est. ms at 1280x720, phone_b | 3.25 | 1.50 | | |\n" + end + "\n\nafter\n" in text
 
 
 def test_a_readme_without_markers_is_left_alone(script, tmp_path, monkeypatch, capsys):
