@@ -44,7 +44,7 @@ def random_checkpoint(path: Path, config: str) -> Path:
         for name, p in model.named_parameters():
             if name.startswith(("recon", "aa")):
                 p.add_(torch.randn_like(p) * 0.02)
-    return checkpoint.save(path, model, {"jitter_pattern": "mnss"})
+    return checkpoint.save(path, model, {"jitter_pattern": "grid"})
 
 
 def timed_exports(ckpt: Path, root: Path, data: Path | None, args) -> dict:

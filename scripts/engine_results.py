@@ -206,7 +206,7 @@ def stress_section(doc: dict, methods: list[str]) -> list[str]:
     shown = [m for m in methods if m in entry["methods"]]
     lines = ["## Stress: a figure crossing a textured wall, a strafe past alpha-tested foliage with a cut", "",
              "The scenarios of `mnss-kit stress` (`mnss_kit/configs/data/stress.yaml`) as it renders them: the toolkit's "
-             "own inputs (MNSS jitter, float colour, exact motion) against the 16-sample box, every frame.  Each cell: PSNR "
+             "own inputs (grid jitter, float colour, exact motion) against the 16-sample box, every frame.  Each cell: PSNR "
              "over the frame / PSNR on the pixels disoccluded that frame.", "",
              "| scenario | " + " | ".join(shown) + " |", "|---|" + "---:|" * len(shown)]
     lines += [f"| {seq} | " + " | ".join(f"{_cell(per[m]['psnr'], '{:.2f}')} / {_cell(per[m].get('disocclusion_psnr'), '{:.2f}')}"

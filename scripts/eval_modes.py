@@ -11,7 +11,7 @@ Each set is rendered by ``--scale`` overrides of its config (``mnss-kit render C
 --out DATA_ROOT/CONFIG_xS``; an existing directory is reused): the configs give ``lr_size:
 [320, 180]``, and 320x180 times each of these modes is a whole number of HR pixels on both axes
 (416x234, 480x270, 544x306, 640x360, 800x450, 960x540), so every mode's ratio is exactly its
-scale.  The mnss jitter pattern exists at 2 and 3 only: a fractional mode renders with Halton
+scale.  The grid jitter pattern exists at 2 and 3 only: a fractional mode renders with Halton
 jitter (``--jitter`` sets one pattern for every mode).  ``--set KEY=VALUE`` passes further render
 overrides (``frames=24``, ``hr_samples=4``).  Renders are slow (16 HR samples, the native TAA and
 4x references; 3x renders 960x540): render once, evaluate many checkpoints.

@@ -171,7 +171,7 @@ def make_context(root: Path) -> dict:
     write_synthetic_sequence(data / "pan_cut", name="pan_cut", frames=6, cut_at=3)
     torch.manual_seed(0)
     model = randomise_convs(build_model(load_model_config("mnss_x2_tiny")).eval())
-    ckpt = checkpoint.save(base / "tiny.pt", model, {"jitter_pattern": "mnss"})
+    ckpt = checkpoint.save(base / "tiny.pt", model, {"jitter_pattern": "grid"})
     bundle = base / "bundle"
     with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
         code = main(["export", str(ckpt), "--out", str(bundle), "--resolution", "64x48", "--data", str(data),

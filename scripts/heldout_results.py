@@ -2,7 +2,7 @@
 """Models against the toolkit's TAAU and bicubic on data they never saw, in the input variants
 engines send: the held-out set ``test_x2`` and the unseen set ``unseen_x2`` (scene families no
 training config renders, one of them built from meshes and textures no training scene uses),
-each with the MNSS jitter, without jitter at 8-bit colour and depth, and with Halton jitter.
+each with the grid jitter, without jitter at 8-bit colour and depth, and with Halton jitter.
 Writes ``benchmarks/results/heldout_results.json`` and ``docs/results.md`` (with one crop per set in
 ``docs/results/``), and the mean-PSNR table of README.md between its markers.
 
@@ -14,7 +14,7 @@ Writes ``benchmarks/results/heldout_results.json`` and ``docs/results.md`` (with
 The first model is the candidate default the targets are checked for; the second the fast one.
 Its int8 is its deployment bundle (exported with calibration on the training data) through the
 emulator (numpy GPU passes, the NPU in LiteRT's reference numerics), measured on the unseen set
-with the MNSS jitter.  Resumable: finished set x variant entries are kept (for the
+with the grid jitter.  Resumable: finished set x variant entries are kept (for the
 same checkpoint files and frame count).  Every sequence is cut to its first FRAMES frames.
 """
 
@@ -28,7 +28,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from mnss_kit.bench.run import model_label  # noqa: E402
-from mnss_kit.eval.variant_sets import VARIANTS, variant_set  # noqa: E402
+from mnss_kit.eval.variant_sets import VARIANTS, current_variant_names, variant_set  # noqa: E402
 from mnss_kit.fileio import atomic_output_path, atomic_write_bytes, atomic_write_json, atomic_write_text, file_lock, read_json  # noqa: E402
 from mnss_kit.zoo import DEFAULT_MODEL  # noqa: E402
 
@@ -43,8 +43,8 @@ DOC_CROPS = REPO / "docs" / "results"  # the crops the doc shows, <set>_crop.png
 COST_CHART = DOC_CROPS / "psnr_vs_macs.png"
 FRAMES = 24  # evaluated per sequence
 RENDER_FRAMES = FRAMES  # rendered per variant sequence: only the evaluated frames (scripts/engine_results.py renders the same sets)
-SETS = {"test_x2": "data/test_x2", "unseen_x2": None}  # render config -> the MNSS-jitter set already rendered (None: render)
-SHOWN = ("mnss", "no_jitter_ldr8_depth8", "halton")
+SETS = {"test_x2": "data/test_x2", "unseen_x2": None}  # render config -> the grid-jitter set already rendered (None: render)
+SHOWN = ("grid", "no_jitter_ldr8_depth8", "halton")
 BASELINES = ("taau", "bicubic")
 # targets for the default model (the first) and the fast one (the second)
 TAAU_MARGIN_DB, BICUBIC_MARGIN_DB = 1.0, 4.0
@@ -103,9 +103,17 @@ def read_results(models: list[str], digests: list[str], path: Path | None = None
     """The results in ``path`` (default RESULTS) so far for ``models`` (empty when the file holds other
     checkpoints or frames)."""
     path = path or RESULTS
-    doc = read_json(path) if path.is_file() else {}
+    doc = load_results(path) if path.is_file() else {}
     if doc.get("models") != models or doc.get("digests") != digests or doc.get("frames") != frames:
         doc = {"models": models, "labels": [model_label(m) for m in models], "digests": digests, "frames": frames, "sets": {}}
+    return doc
+
+
+def load_results(path: Path) -> dict:
+    """The results file at ``path``, its variants by today's names: a file written before the grid
+    jitter pattern was renamed holds its entries under ``mnss`` (``eval.variant_sets.RENAMED_VARIANTS``)."""
+    doc = read_json(path)
+    doc["sets"] = {config: current_variant_names(entries) for config, entries in doc.get("sets", {}).items()}
     return doc
 
 
@@ -129,8 +137,8 @@ def run(models: list[str], sets: list[str]) -> dict:
                 continue
             print(f"{config} / {variant}", flush=True)
             data = variant_set(variant, config, WORK, RENDER_FRAMES, base=REPO / base if base else None)
-            crops = CROPS / config if variant == "mnss" else None
-            entry = evaluate_entry(models, data, crops, int8=config == "unseen_x2" and variant == "mnss")
+            crops = CROPS / config if variant == "grid" else None
+            entry = evaluate_entry(models, data, crops, int8=config == "unseen_x2" and variant == "grid")
             with results_lock():
                 doc = read_results(models, digests)
                 doc["sets"].setdefault(config, {})[variant] = entry
@@ -159,7 +167,7 @@ def checks(doc: dict) -> list[str]:
             lines.append(f"- `{config}` / {variant}: {default} {m['psnr']:.2f} dB, TAAU {t['psnr']:.2f} ({_margin(margin, TAAU_MARGIN_DB)}, target "
                          f"+{TAAU_MARGIN_DB:.1f}: {'met' if margin >= TAAU_MARGIN_DB else 'missed'}); below TAAU on "
                          f"{'; '.join(below) if below else 'no sequence and no metric'}")
-            if variant == "mnss":
+            if variant == "grid":
                 gain = m["psnr"] - b["psnr"]
                 lines.append(f"  - over bicubic {_margin(gain, BICUBIC_MARGIN_DB)} dB (target +{BICUBIC_MARGIN_DB:.1f}: {'met' if gain >= BICUBIC_MARGIN_DB else 'missed'})")
             if fast:
@@ -178,10 +186,10 @@ def checks(doc: dict) -> list[str]:
 def shown_crops(doc: dict) -> dict[str, tuple[str, str]]:
     """Per set, the crop the doc shows, copied from CROPS into DOC_CROPS when a run left it: the
     default model's worst region, on the sequence where it is furthest below (or least above)
-    TAAU with the MNSS jitter, in the last frame cropped."""
+    TAAU with the grid jitter, in the last frame cropped."""
     default, shown = doc["labels"][0], {}
     for config, entries in in_order(doc):
-        per = entries.get("mnss", {}).get("sequences", {})
+        per = entries.get("grid", {}).get("sequences", {})
         if not per:
             continue
         seq = min(per, key=lambda s: per[s][default]["psnr"] - per[s]["taau"]["psnr"])
@@ -268,7 +276,7 @@ def write_doc(doc: dict) -> None:
     for config, (name, note) in shown_crops(doc).items():
         lines += [f"`{config}`, {note}: reference, each method with its PSNR on the crop, and error maps.", "",
                   f"![{config} {name}]({DOC_CROPS.relative_to(DOC.parent).as_posix()}/{config}_crop.png)", ""]
-    lines.append(f"Every crop of the MNSS-jitter runs (the centre and the default model's worst region of two frames per "
+    lines.append(f"Every crop of the grid-jitter runs (the centre and the default model's worst region of two frames per "
                  f"sequence): `{CROPS.relative_to(REPO)}/` after a run (generated, not committed).")
     atomic_write_text(DOC, "\n".join(lines) + "\n")
     print(f"wrote {DOC.relative_to(REPO)}")
@@ -363,7 +371,7 @@ def main() -> int:
     if args.doc_only and not RESULTS.is_file():
         print(f"error: no results in {RESULTS.relative_to(REPO)} yet; run without --doc-only first", file=sys.stderr)
         return 2
-    doc = read_json(RESULTS) if args.doc_only else run(args.models, args.sets)
+    doc = load_results(RESULTS) if args.doc_only else run(args.models, args.sets)
     write_doc(doc)
     update_readme(doc)
     return 0

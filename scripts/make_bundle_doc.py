@@ -36,7 +36,7 @@ def export_example(root: Path) -> Path:
 
     torch.manual_seed(0)
     model = randomise_convs(build_model(load_model_config("mnss_x2_tiny")).eval())
-    ckpt = checkpoint.save(root / "mnss_x2_tiny.pt", model, {"jitter_pattern": "mnss"})
+    ckpt = checkpoint.save(root / "mnss_x2_tiny.pt", model, {"jitter_pattern": "grid"})
     write_synthetic_sequence(root / "data" / "pan", lr_size=(32, 24), frames=8, name="pan")
     os.chdir(root)  # relative paths, so the manifest example names no temporary directory
     export(ExportRequest(model="mnss_x2_tiny.pt", out=Path("bundle"), resolution="64x48", device="snapdragon_8_gen_1",

@@ -49,7 +49,7 @@ def synthetic_dataset(tmp_path_factory) -> Path:
     """A dataset directory holding two analytic sequences; treat it as read-only (copy it to change it).
 
     ``pan``: 8 frames of a panning camera and a moving square, LR 32x24 -> HR 64x48 (scale 2,
-    mnss jitter), reset only on frame 0.  ``pan_cut``: the same scene with a camera cut at
+    grid jitter), reset only on frame 0.  ``pan_cut``: the same scene with a camera cut at
     frame 5 (reset on frames 0 and 5).  Buffers: lr color/depth/motion, hr reference/depth/motion.
     Loaders writing a cache should be given a ``cache_dir`` outside this directory.
     """

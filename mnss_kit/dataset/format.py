@@ -13,6 +13,7 @@ canonical ones (``mnss_kit.ops.conventions``) by ``read_buffer``, once, here.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,8 +25,11 @@ from ..config import from_dict, to_dict
 from ..errors import UserError
 from ..fileio import atomic_write_json, read_json
 from ..ops import colour
+from ..ops import jitter as jitter_patterns
 from ..ops import scale as scales
 from . import exr
+
+log = logging.getLogger(__name__)
 
 FORMAT_NAME = "mnss-dataset"
 FORMAT_VERSION = 1
@@ -113,6 +117,7 @@ class SequenceMeta:
             raise ValueError(f"dataset format version {self.version} is newer than this toolkit ({FORMAT_VERSION})")
         if isinstance(self.scale, float) and self.scale.is_integer():
             self.scale = int(self.scale)  # 2.0 reads as 2: the integer scale it is
+        self.jitter_pattern = current_pattern(self.jitter_pattern)  # a dataset written before a rename reads as today's
         if isinstance(self.scale, float):
             if not (math.isfinite(self.scale) and scales.MIN_SCALE <= self.scale <= scales.MAX_SCALE):
                 raise ValueError(f"scale {self.scale} is outside [{scales.MIN_SCALE}, {scales.MAX_SCALE}]")
@@ -129,6 +134,21 @@ class SequenceMeta:
     @property
     def frame_count(self) -> int:
         return len(self.frames)
+
+
+_TOLD_RENAMED: set[str] = set()
+
+
+def current_pattern(pattern: str) -> str:
+    """``pattern`` by today's name: an earlier spelling (``ops.jitter.RENAMED_PATTERNS``, such as
+    ``mnss`` for ``grid``) becomes the new one, and logs one deprecation line per process naming it.
+    Read by data configs, ``--set jitter=...`` and ``meta.json``; anything else is returned as given."""
+    new = jitter_patterns.pattern_name(pattern)
+    if new != pattern and pattern not in _TOLD_RENAMED:
+        _TOLD_RENAMED.add(pattern)
+        log.warning("the jitter pattern '%s' is now called '%s' (the same offsets): '%s' is still read but "
+                    "deprecated, write '%s'", pattern, new, pattern, new)
+    return new
 
 
 def key_buffer(key: str) -> tuple[str, str]:

@@ -63,7 +63,7 @@ def write_synthetic_sequence(
     lr_size: tuple[int, int] = (32, 24),
     scale: int = 2,
     frames: int = 8,
-    pattern: str = "mnss",
+    pattern: str = "grid",
     cut_at: int | None = None,
     name: str = "synthetic",
 ) -> Path:

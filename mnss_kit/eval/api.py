@@ -57,8 +57,8 @@ def load_model(name_or_path: str, data_dir: str):
         scale = meta.scale
     else:
         check_data_scale(record.get("family"), scale, meta.scale, str(data_dir))
-    pattern = record.get("jitter_pattern")
-    trained = trained_patterns(record)
+    trained = trained_patterns(record)  # by today's names (a shipped record may say mnss for grid)
+    pattern = ",".join(trained) or record.get("jitter_pattern")
     if trained and meta.jitter_pattern not in trained:
         logging.getLogger(__name__).warning(
             "model trained with the '%s' jitter pattern, data uses '%s'", pattern, meta.jitter_pattern)

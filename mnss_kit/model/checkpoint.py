@@ -22,6 +22,7 @@ from .. import __version__
 from ..config import to_dict
 from ..errors import UserError
 from ..fileio import atomic_output_path, sha256_file
+from ..ops.jitter import pattern_name
 from ..resources import ZOO_DIR
 from .config import model_config_from_dict
 from .families import build_model
@@ -51,15 +52,17 @@ def code_version() -> str:
 
 def trained_patterns(record: dict) -> list[str]:
     """The jitter patterns a checkpoint was trained on: its record's ``jitter_pattern`` holds one
-    name, or several joined by commas when the training sets used several (``train.loop``)."""
-    return [p for p in str(record.get("jitter_pattern") or "").split(",") if p]
+    name, or several joined by commas when the training sets used several (``train.loop``).  By
+    today's names: a record written before a pattern was renamed (the shipped ones say ``mnss`` for
+    ``grid``) reads as the new name, without a warning, since the file is not the user's to change."""
+    return list(dict.fromkeys(pattern_name(p) for p in str(record.get("jitter_pattern") or "").split(",") if p))
 
 
 def bundle_pattern(record: dict) -> str:
-    """The jitter pattern a bundle of this checkpoint asks the engine for: the toolkit's MNSS
+    """The jitter pattern a bundle of this checkpoint asks the engine for: the toolkit's grid
     pattern when it was trained on it (or the record names none), else the first it was trained on."""
     patterns = trained_patterns(record)
-    return "mnss" if not patterns or "mnss" in patterns else patterns[0]
+    return "grid" if not patterns or "grid" in patterns else patterns[0]
 
 
 def make_record(model: nn.Module, record: dict | None = None) -> dict:

@@ -6,11 +6,13 @@ tile of ``s x s`` HR pixels; sub-pixel ``(dx, dy)`` of the tile has its centre
 at offset ``((dx + 0.5) / s - 0.5, (dy + 0.5) / s - 0.5)``.
 
 Patterns
-    ``mnss``   MNSS (Yang et al. 2023).  x2: the sub-pixel moves by the speed
+    ``grid``   one sample at every HR pixel centre of the tile, the order of MNSS
+               (Yang et al. 2023).  x2: the sub-pixel moves by the speed
                cycles {1, 0} horizontally and {1, 1, 0} vertically (HR pixels
                per frame, wrapping inside the tile), period 12.  x3: a fixed
                9-frame order that covers the 3x3 tile, consecutive samples far
-               apart.  Only scales 2 and 3.
+               apart.  Only scales 2 and 3.  Called ``mnss`` before; that
+               spelling is still read (``RENAMED_PATTERNS``).
     ``halton`` Halton(2, 3), index starting at 1, period ``ceil(8 * s * s)``: ``8 s^2`` at an
                integer scale (32 at x2, as before), and at a fractional one FSR2's phase count
                (18 at 1.5x, 24 at 1.7x, ``s`` taken as the decimal it was written as).  The count
@@ -21,7 +23,7 @@ Patterns
                follow: Halton's low discrepancy is what spreads the samples.
     ``center`` no jitter (ablation), any scale.
 
-Scales: an integer >= 2, or a fractional scale in [1.25, 4] (``ops.scale``); ``mnss`` and the
+Scales: an integer >= 2, or a fractional scale in [1.25, 4] (``ops.scale``); ``grid`` and the
 sub-pixel functions (``subpixel_index`` and friends: MNSS's pixel insertion) take integers only.
 """
 
@@ -32,21 +34,30 @@ import numpy as np
 from ..errors import UserError
 from . import scale as scales
 
-PATTERNS = ("mnss", "halton", "center")
+PATTERNS = ("grid", "halton", "center")
+# Earlier spellings of a pattern -> its name.  Data configs, ``--set jitter=...`` and datasets already
+# on disk may give them; they mean the same offsets.  What is written (meta.json, bundles) uses PATTERNS.
+RENAMED_PATTERNS = {"mnss": "grid"}
 
-MNSS_X2_SPEED_X = (1, 0)
-MNSS_X2_SPEED_Y = (1, 1, 0)
+GRID_X2_SPEED_X = (1, 0)
+GRID_X2_SPEED_Y = (1, 1, 0)
 # Offsets this close (in sub-pixels) to a sub-pixel border count as on it; far above float32
 # rounding of an offset, far below any pattern's distance from a border when not on one.
 SUBPIXEL_BORDER_TOLERANCE = 1e-4
 # (dx, dy) per frame; each step jumps to a different row and column of the tile.
-MNSS_X3_ORDER = ((1, 1), (0, 0), (2, 2), (0, 1), (2, 0), (1, 2), (0, 2), (2, 1), (1, 0))
+GRID_X3_ORDER = ((1, 1), (0, 0), (2, 2), (0, 1), (2, 0), (1, 2), (0, 2), (2, 1), (1, 0))
+
+
+def pattern_name(pattern: str) -> str:
+    """Today's name of ``pattern``: an earlier spelling (``RENAMED_PATTERNS``) becomes the name it
+    has now; any other text is returned as it is (``_check`` judges it)."""
+    return RENAMED_PATTERNS.get(pattern, pattern)
 
 
 def period(pattern: str, scale: int | float) -> int:
     """Number of frames after which the pattern repeats."""
-    scale = _check(pattern, scale)
-    if pattern == "mnss":
+    pattern, scale = _check(pattern, scale)
+    if pattern == "grid":
         return 12 if scale == 2 else 9
     if pattern == "halton":
         if isinstance(scale, (int, np.integer)):
@@ -72,31 +83,31 @@ def halton(index: int, base: int) -> float:
     return r
 
 
-def mnss_subpixels(scale: int, n: int) -> np.ndarray:
-    """``(n, 2)`` int32 sub-pixel indices ``(dx, dy)`` of the MNSS pattern."""
-    _check("mnss", scale)
+def grid_subpixels(scale: int, n: int) -> np.ndarray:
+    """``(n, 2)`` int32 sub-pixel indices ``(dx, dy)`` of the grid pattern."""
+    _check("grid", scale)
     out = np.zeros((n, 2), dtype=np.int32)
     if scale == 3:
         for t in range(n):
-            out[t] = MNSS_X3_ORDER[t % 9]
+            out[t] = GRID_X3_ORDER[t % 9]
         return out
     x = y = 0
     for t in range(n):
         out[t] = (x, y)
-        x = (x + MNSS_X2_SPEED_X[t % len(MNSS_X2_SPEED_X)]) % 2
-        y = (y + MNSS_X2_SPEED_Y[t % len(MNSS_X2_SPEED_Y)]) % 2
+        x = (x + GRID_X2_SPEED_X[t % len(GRID_X2_SPEED_X)]) % 2
+        y = (y + GRID_X2_SPEED_Y[t % len(GRID_X2_SPEED_Y)]) % 2
     return out
 
 
 def jitter_sequence(pattern: str, scale: int | float, n: int) -> np.ndarray:
     """``(n, 2)`` float64 jitter offsets ``(jx, jy)`` in LR pixels for frames ``0..n-1``."""
-    scale = _check(pattern, scale)
+    pattern, scale = _check(pattern, scale)
     if pattern == "center":
         return np.zeros((n, 2))
     if pattern == "halton":
         p = period(pattern, scale)
         return np.array([(halton(t % p + 1, 2) - 0.5, halton(t % p + 1, 3) - 0.5) for t in range(n)])
-    subs = mnss_subpixels(scale, n)
+    subs = grid_subpixels(scale, n)
     return np.array([subpixel_center_offset(int(dx), int(dy), scale) for dx, dy in subs])
 
 
@@ -116,9 +127,10 @@ def subpixel_index(offset: np.ndarray, scale: int) -> np.ndarray:
     return np.clip(idx, 0, scale - 1)
 
 
-def _check(pattern: str, scale: int | float) -> int | float:
-    """``scale`` checked for ``pattern``: an integer >= 2 as it is, a float as ``ops.scale.parse_scale``
-    gives it (an integral float becomes the int)."""
+def _check(pattern: str, scale: int | float) -> tuple[str, int | float]:
+    """``pattern`` by today's name (:func:`pattern_name`) and ``scale`` checked for it: an integer >= 2
+    as it is, a float as ``ops.scale.parse_scale`` gives it (an integral float becomes the int)."""
+    pattern = pattern_name(pattern)
     if pattern not in PATTERNS:
         raise UserError(f"unknown jitter pattern '{pattern}' (one of {', '.join(PATTERNS)})")
     if isinstance(scale, (float, np.floating)) and not isinstance(scale, bool):
@@ -127,7 +139,7 @@ def _check(pattern: str, scale: int | float) -> int | float:
         pass
     elif not isinstance(scale, (int, np.integer)) or isinstance(scale, bool) or scale < 2:
         raise UserError(f"scale must be an integer >= 2 or a fraction in [{scales.MIN_SCALE}, {scales.MAX_SCALE}], got {scale!r}")
-    if pattern == "mnss" and scale not in (2, 3):
-        raise UserError(f"the mnss jitter pattern exists for scales 2 and 3, not {scale}"
+    if pattern == "grid" and scale not in (2, 3):
+        raise UserError(f"the grid jitter pattern exists for scales 2 and 3, not {scale}"
                         + (": use jitter: halton (or center) at a fractional scale" if isinstance(scale, float) else ""))
-    return scale
+    return pattern, scale

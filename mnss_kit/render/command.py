@@ -14,7 +14,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shard", default=None, metavar="I/N",
                         help="render only shard I of N (disjoint frame sets; outputs merge by copying)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                        help="override a sequence key in every sequence (frames=8) or in one (NAME.frames=8)")
+                        help="override a sequence key in every sequence (frames=8) or in one (NAME.frames=8); "
+                             "jitter=grid, halton or center (mnss, the old name of grid, is still read)")
     parser.add_argument("--scale", metavar="S",
                         help="the scale of every sequence (--set scale=S): 2, 3, 4 or a quality mode in [1.25, 4] "
                              "such as 1.5 or 1.7; with hr_size in the config the LR size is round(hr_size / S)")

@@ -34,6 +34,7 @@ from pathlib import Path
 
 from ..config import CONFIG_DIR, apply_overrides, from_dict, read_yaml, resolve_config_path
 from ..errors import UserError
+from ..dataset.format import current_pattern  # the on-disk contract: the one reader of renamed patterns
 from ..ops import jitter as jitter_ops
 from ..ops import scale as scales
 
@@ -53,7 +54,7 @@ class SequenceConfig:
     start_time: float = 0.0
     lr_size: tuple[int, int] | None = None  # (640, 360) unless hr_size is given
     scale: int | float | str = 2  # an int when integral (2.0 -> 2); a quality mode such as 1.5 otherwise (text: refused clearly)
-    jitter: str = "mnss"
+    jitter: str = "grid"  # ops.jitter.PATTERNS; an earlier spelling (mnss) is read as today's name
     hr_samples: int = 16
     camera: str = "auto"  # "auto": the scene's own path; "still": that path held at start_time; or a camera-path YAML
     particles: bool = False
@@ -79,6 +80,7 @@ class SequenceConfig:
             raise ValueError(f"sequence '{self.name}': hr_samples must be a square (1, 4, 9, 16, 25, ...), got {self.hr_samples}")
         if self.exposure <= 0:
             raise ValueError(f"sequence '{self.name}': exposure must be > 0")
+        self.jitter = current_pattern(self.jitter)
         try:
             jitter_ops.period(self.jitter, self.scale)  # a UserError for a bad pattern or scale
         except UserError as e:

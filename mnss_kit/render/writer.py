@@ -33,7 +33,7 @@ from ..dataset.format import (
 )
 from ..errors import UserError
 from ..ops import native_taa
-from ..ops.jitter import jitter_sequence
+from ..ops.jitter import jitter_sequence, pattern_name
 from . import gpu
 from .camera import perspective
 from .config import RenderConfig, SequenceConfig
@@ -154,13 +154,26 @@ def _prepare_meta(seq_dir: Path, meta: SequenceMeta, overwrite: bool) -> None:
     path = seq_dir / META_FILE
     text = json.dumps(to_dict(meta), indent=2) + "\n"
     if path.is_file() and not overwrite:
-        old, new = json.loads(path.read_text()), json.loads(text)
+        old, new = _current_names(json.loads(path.read_text())), json.loads(text)
         if "environment" not in old.get("scene", {}):  # rendered before meta recorded it: unknown, not different
             new = _without_environment(new)
         if old != new:
             raise UserError(f"{seq_dir} holds a sequence rendered {_difference(old, new)} (use --overwrite or another --out)")
         return
     write_meta(seq_dir, meta)
+
+
+def _current_names(meta: dict) -> dict:
+    """A ``meta.json`` on disk with its jitter pattern by today's name where the render records it
+    (``jitter_pattern`` and the config's ``jitter`` in ``scene``): a sequence rendered before the
+    pattern was renamed (``mnss``, now ``grid``) resumes, and keeps the name it was written with."""
+    out = dict(meta)
+    if isinstance(out.get("jitter_pattern"), str):
+        out["jitter_pattern"] = pattern_name(out["jitter_pattern"])
+    scene = out.get("scene")
+    if isinstance(scene, dict) and isinstance(scene.get("jitter"), str):
+        out["scene"] = {**scene, "jitter": pattern_name(scene["jitter"])}
+    return out
 
 
 def _difference(old: dict, new: dict) -> str:

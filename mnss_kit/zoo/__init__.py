@@ -5,7 +5,7 @@
 ``ntaau_x2.pt`` (the default, :data:`DEFAULT_MODEL`) and ``ntaau_x2_fast.pt``: the configs of the
 same names, small nets that steer the toolkit's TAAU and its display filter, trained by
 ``mnss-kit train ntaau_x2_base`` then ``ntaau_x2``, which fine-tunes it (and the same for
-``ntaau_x2_fast``) on ``train_x2`` rendered with the MNSS jitter,
+``ntaau_x2_fast``) on ``train_x2`` rendered with the grid jitter,
 centre (no jitter) and Halton, ``train_rooms_x2`` and ``train_still_x2`` (docs/training.md, *Reproducing
 the shipped models*; docs/results.md).  ``mnss_x2.pt``: ``mnss_kit/configs/models/mnss_x2.yaml`` trained
 by ``mnss-kit train mnss_x2`` on ``mnss-kit render train_x2`` (the record holds the data

@@ -22,7 +22,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
-from mnss_kit.eval.variant_sets import VARIANTS, variant_set  # noqa: E402
+from mnss_kit.eval.variant_sets import VARIANTS, current_variant_names, variant_set  # noqa: E402
 from mnss_kit.fileio import atomic_write_json, atomic_write_text, portable_path, read_json  # noqa: E402
 
 RESULTS = REPO / "benchmarks" / "results" / "input_variants.json"
@@ -93,6 +93,8 @@ def main() -> int:
     parser.add_argument("--doc-only", action="store_true")
     args = parser.parse_args()
     doc = read_json(RESULTS) if RESULTS.is_file() else {}
+    if "variants" in doc:  # a file from before the grid jitter variant was renamed says mnss
+        doc["variants"] = current_variant_names(doc["variants"])
     if doc.get("model") != args.model or doc.get("frames") != FRAMES:
         doc = {"model": args.model, "frames": FRAMES, "data": portable_path(args.data), "variants": {}}
     if not args.doc_only:

@@ -32,7 +32,7 @@ def tiny_bundle(tmp_path_factory, synthetic_dataset) -> Path:
     torch.manual_seed(0)
     model = build_model(load_model_config("mnss_x2_tiny")).eval()
     randomise_convs(model)
-    ckpt = checkpoint.save(root / "mnss_x2_tiny.pt", model, {"jitter_pattern": "mnss"})
+    ckpt = checkpoint.save(root / "mnss_x2_tiny.pt", model, {"jitter_pattern": "grid"})
     out = root / "bundle"
     code = main(["export", str(ckpt), "--out", str(out), "--resolution", BUNDLE_SIZE, "--data", str(synthetic_dataset),
                  "--sequence", str(synthetic_dataset), "--frames", str(SEQUENCE_FRAMES), "--no-progress"])

@@ -52,7 +52,7 @@ def test_app_frame_pipeline_runs_an_ntaau_lr_bundle(gl_classes, java_core, synth
 
     torch.manual_seed(0)
     model = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1)), noise=0.5)
-    ckpt = checkpoint.save(tmp_path / "ntaau_lr.pt", model, {"jitter_pattern": "mnss"})
+    ckpt = checkpoint.save(tmp_path / "ntaau_lr.pt", model, {"jitter_pattern": "grid"})
     bundle = tmp_path / "ntaau_lr"
     assert main(["export", str(ckpt), "--out", str(bundle), "--resolution", "64x48", "--data", str(synthetic_dataset),
                  "--no-progress"]) == 0

@@ -156,7 +156,7 @@ def test_negated_jitter_warns(capsys, dataset):
     edit_meta(dataset / "pan", negate)
     code, out = run(capsys, "check", dataset)
     assert code == 0
-    assert any("the 'mnss' pattern negated" in line for line in out)
+    assert any("the 'grid' pattern negated" in line for line in out)
     assert any(line.startswith("warning: pan: LR colour matches the reference better with the jitter negated") for line in out)
 
 
@@ -183,7 +183,7 @@ def test_info_prints_each_sequence(capsys, synthetic_dataset):
     assert code == 0
     assert out[0].split()[:4] == ["sequence", "frames", "lr", "hr"]
     assert out[1].split()[:5] == ["pan", "8", "32x24", "64x48", "2"]
-    assert out[2].split()[:7] == ["pan_cut", "8", "32x24", "64x48", "2", "mnss", "2"]
+    assert out[2].split()[:7] == ["pan_cut", "8", "32x24", "64x48", "2", "grid", "2"]
     assert re.fullmatch(r"fingerprint: [0-9a-f]{64}", out[-1])
 
 

@@ -209,7 +209,7 @@ def test_an_mnss_checkpoint_refuses_fractional_data_in_one_line(fractional_data,
 
     torch.manual_seed(0)
     model = build_model(MNSSConfig(scale=2, recon_width=4, recon_layers=2, aa_width=4, aa_layers=2))
-    ckpt = checkpoint.save(tmp_path / "tiny_x2.pt", model, {"jitter_pattern": "mnss"})
+    ckpt = checkpoint.save(tmp_path / "tiny_x2.pt", model, {"jitter_pattern": "grid"})
     code = main(["eval", str(ckpt), "--data", str(fractional_data / "q15"), "--no-progress"])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "\n" not in err

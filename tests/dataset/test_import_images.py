@@ -80,14 +80,14 @@ def test_sixteen_bit_png_exr_and_npy_buffers(tmp_path, capsys):
         m["buffers"]["lr/motion"] = {"file": "mv_{frame}.npy", "decode": "raw", "units": "pixels"}
         m["buffers"]["hr/reference"] = {"file": "ref16/{frame:04d}.png", "space": "display"}
         m["buffers"]["hr/motion"] = {"file": "hr_mv/{frame:04d}.exr", "decode": "raw"}
-        m["jitter"] = {"pattern": "mnss"}  # no file: the offsets of the toolkit's pattern
+        m["jitter"] = {"pattern": "grid"}  # no file: the offsets of the toolkit's pattern
 
     code, _, err = run_import(capsys, tmp_path / "cap", tmp_path / "out", write_mapping(tmp_path, change))
     assert code == 0, err
     (seq,) = find_sequences(tmp_path / "out")
     meta = read_meta(seq)
     assert meta.motion.units == "pixels" and not meta.reverse_z
-    assert [f.jitter for f in meta.frames] == [tuple(j) for j in jitter_sequence("mnss", 2, 2)]
+    assert [f.jitter for f in meta.frames] == [tuple(j) for j in jitter_sequence("grid", 2, 2)]
     for t in range(2):
         np.testing.assert_array_equal(read_buffer(seq, meta, "lr", "motion", t), motion[t])
         np.testing.assert_array_equal(read_buffer(seq, meta, "hr", "motion", t), hr_motion[t])
@@ -125,7 +125,7 @@ def no_jitter_source(m):
     (missing_buffer, "buffers has no 'hr/reference'"),
     (misplaced_key, "buffers.lr/color.units does not apply to a color buffer"),
     (unknown_key, "unknown key 'jitter.offset'"),
-    (no_jitter_source, "jitter needs a file, or a pattern the offsets are generated from (mnss, halton, center)"),
+    (no_jitter_source, "jitter needs a file, or a pattern the offsets are generated from (grid, halton, center)"),
 ], ids=lambda v: getattr(v, "__name__", ""))
 def test_bad_mappings_fail_in_one_line(tmp_path, capsys, change, message):
     write_packed_capture(tmp_path / "cap", lr_size=LR, frames=2)

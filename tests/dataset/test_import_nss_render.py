@@ -18,7 +18,7 @@ keyframes:
 """
 CONFIG = """
 version: 1
-defaults: {lr_size: [32, 18], scale: 2, jitter: mnss, hr_samples: 4, fps: 30, frames: 30}
+defaults: {lr_size: [32, 18], scale: 2, jitter: grid, hr_samples: 4, fps: 30, frames: 30}
 sequences:
   - {name: arena, scene: arena, seed: 11, camera: cam.yaml, exposure: 1.5}
 """

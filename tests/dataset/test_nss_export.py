@@ -18,7 +18,7 @@ from mnss_kit.render.writer import render_dataset
 
 CONFIG = """
 version: 1
-defaults: {lr_size: [16, 9], scale: 2, jitter: mnss, hr_samples: 1, fps: 30, frames: 2}
+defaults: {lr_size: [16, 9], scale: 2, jitter: grid, hr_samples: 1, fps: 30, frames: 2}
 sequences:
   - {name: a, scene: arena, seed: 1}
   - {name: b, scene: arena, seed: 2}

@@ -43,7 +43,7 @@ def shared_bundle(tmp_path_factory) -> Path:
         torch.manual_seed(0)
         model = build_model(load_model_config("mnss_x2")).eval()
         randomise_convs(model)  # the last convs start at zero: random weights so every tensor carries signal
-        ckpt = checkpoint.save(root / "mnss_x2.pt", model, {"jitter_pattern": "mnss"})
+        ckpt = checkpoint.save(root / "mnss_x2.pt", model, {"jitter_pattern": "grid"})
         code = main(["export", str(ckpt), "--out", str(root / "bundle"), "--resolution", "64x48",
                      "--data", str(root / "data"), "--no-progress"])
         assert code == 0

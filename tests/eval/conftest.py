@@ -19,7 +19,7 @@ def _pattern(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.stack([r, g, b], axis=-1).astype(np.float32)
 
 
-def write_panning_sequence(out, lr_size=(32, 24), scale=2, frames=12, speed=(0.0, 0.0), pattern="mnss"):
+def write_panning_sequence(out, lr_size=(32, 24), scale=2, frames=12, speed=(0.0, 0.0), pattern="grid"):
     """A flat textured plane moving ``speed`` HR pixels per frame (0 = static camera).
 
     Colour is stored as display values (no tone map) so the HR reference is

@@ -27,12 +27,12 @@ def results() -> dict:
     per = {"seq_a": {"net": quality(31.0), "fast": quality(30.6), "taau": quality(30.0), "bicubic": quality(29.0)},
            "seq_b": {"net": quality(32.0, 0.98), "fast": quality(31.5), "taau": quality(31.5, 0.985), "bicubic": quality(30.0)}}
     means = {"net": quality(31.5), "fast": quality(31.05), "taau": quality(30.75), "bicubic": quality(29.5)}
-    return {"labels": ["net", "fast"], "frames": 4, "sets": {"unseen_x2": {"mnss": {"methods": means, "sequences": per}}}}
+    return {"labels": ["net", "fast"], "frames": 4, "sets": {"unseen_x2": {"grid": {"methods": means, "sequences": per}}}}
 
 
 def test_checks_state_each_target_with_its_numbers(script):
     lines = script.checks(results())
-    assert lines[0].startswith("- `unseen_x2` / mnss: net 31.50 dB, TAAU 30.75 (+0.75, target +1.0: missed)")
+    assert lines[0].startswith("- `unseen_x2` / grid: net 31.50 dB, TAAU 30.75 (+0.75, target +1.0: missed)")
     assert "seq_b (if_ssim 0.98 < 0.985)" in lines[0]
     assert "over bicubic +2.00 dB (target +4.0: missed)" in lines[1]
     assert "fast fast 31.05 dB against TAAU 30.75 (beats it)" in lines[2]
@@ -52,7 +52,7 @@ def test_the_readme_table_is_replaced_between_its_markers(script, tmp_path, monk
     text = readme.read_text()
     assert "| old | table |" not in text
     assert text.startswith("intro\n\n" + start + "\n| set / inputs | `net` | `fast` | taau | bicubic |")
-    assert "| `unseen_x2`, mnss | 31.50 | 31.05 | 30.75 | 29.50 |\n| est. ms at 1280x720, phone_a | 2.50 | 1.00 | | |\n" in text
+    assert "| `unseen_x2`, grid | 31.50 | 31.05 | 30.75 | 29.50 |\n| est. ms at 1280x720, phone_a | 2.50 | 1.00 | | |\n" in text
     assert "| est. ms at 1280x720, phone_b | 3.25 | 1.50 | | |\n" + end + "\n\nafter\n" in text
 
 
@@ -73,9 +73,22 @@ def test_results_of_another_checkpoint_under_the_same_name_are_dropped(script, t
     assert script.read_results(["net", "fast"], ["a2", "b1"])["sets"] == {}
 
 
+def test_a_results_file_from_before_the_grid_rename_still_renders(script, tmp_path, monkeypatch):
+    """Results written when the grid jitter variant was called mnss read as grid, for a resumed run
+    and for --doc-only alike."""
+    monkeypatch.setattr(script, "RESULTS", tmp_path / "heldout_results.json")
+    doc = dict(results(), models=["net", "fast"], digests=["a1", "b1"], frames=script.FRAMES)
+    old = dict(doc, sets={"unseen_x2": {"mnss": doc["sets"]["unseen_x2"]["grid"]}})
+    script.atomic_write_json(script.RESULTS, old)
+    assert script.read_results(["net", "fast"], ["a1", "b1"])["sets"] == doc["sets"]
+    loaded = script.load_results(script.RESULTS)
+    assert loaded["sets"] == doc["sets"]
+    assert script.checks(loaded) == script.checks(results())
+
+
 def test_the_doc_shows_the_reference_steadiness_where_measured(script, monkeypatch):
     doc = results()
-    doc["sets"]["unseen_x2"]["mnss"]["reference_if_ssim"] = {"seq_a": 0.9971}
+    doc["sets"]["unseen_x2"]["grid"]["reference_if_ssim"] = {"seq_a": 0.9971}
     written = {}
     monkeypatch.setattr(script, "atomic_write_text", lambda path, text: written.setdefault("text", text))
     monkeypatch.setattr(script, "shown_crops", lambda doc: {})

@@ -20,3 +20,11 @@ def test_a_rewritten_variant_follows_its_source_when_it_gains_a_sequence(synthet
     shutil.copytree(synthetic_dataset / "pan_cut", base / "pan_cut")
     variant_set("ldr8", "held_out", tmp_path / "work", frames=8, base=base)
     assert [s.name for s in fmt.find_sequences(out)] == ["pan", "pan_cut"]
+
+
+def test_results_keyed_by_the_old_variant_name_read_as_today_s():
+    from mnss_kit.eval.variant_sets import VARIANTS, current_variant_names
+
+    assert "grid" in VARIANTS and "mnss" not in VARIANTS and VARIANTS["ldr8"][0] == "grid"
+    assert list(current_variant_names({"mnss": 1, "halton": 2})) == ["grid", "halton"]
+    assert current_variant_names({"mnss": 1, "grid": 3}) == {"grid": 3}  # today's name wins

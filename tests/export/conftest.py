@@ -23,7 +23,7 @@ def tiny_checkpoint(path: Path, seed: int = 0) -> Path:
 
     torch.manual_seed(seed)
     model = randomise_convs(build_model(load_model_config("mnss_x2_tiny")).eval())
-    return checkpoint.save(path, model, {"jitter_pattern": "mnss"})
+    return checkpoint.save(path, model, {"jitter_pattern": "grid"})
 
 
 @pytest.fixture(scope="session")

@@ -31,7 +31,7 @@ def test_variant_bundle_checks_and_replays(variant, synthetic_dataset, tmp_path)
     torch.manual_seed(1)
     model = build_model(MNSSConfig(**{"scale": 2, "recon_width": 8, "aa_width": 8, **VARIANTS[variant]})).eval()
     randomise_convs(model, prefixes=("",))
-    ckpt = checkpoint.save(tmp_path / f"{variant}.pt", model, {"jitter_pattern": "mnss"})
+    ckpt = checkpoint.save(tmp_path / f"{variant}.pt", model, {"jitter_pattern": "grid"})
     data, size = synthetic_dataset, "64x48"
     if model.scale != 2:
         data, size = tmp_path / "data", f"{16 * model.scale}x{12 * model.scale}"

@@ -1,5 +1,5 @@
 """Every shipped checkpoint exports: a bundle a user would make first, checked by `bundle check`.
-The default ntaau_x2 trains on three jitter patterns; its bundle asks for the MNSS one."""
+The default ntaau_x2 trains on three jitter patterns; its bundle asks for the grid one."""
 
 from __future__ import annotations
 
@@ -19,4 +19,4 @@ def test_a_shipped_ntaau_checkpoint_exports_a_valid_bundle(name, tmp_path, synth
                  "--no-progress"]) == 0
     assert main(["bundle", "check", str(out)]) == 0
     manifest = json.loads((out / "manifest.json").read_text())
-    assert manifest["jitter"]["pattern"] == "mnss"
+    assert manifest["jitter"]["pattern"] == "grid"

@@ -157,7 +157,7 @@ def bundle(request, tmp_path_factory):
     torch.manual_seed(0)
     model = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1)), noise=0.5)
     assert model.steer.decode[1].weight.abs().max() > 0
-    ckpt = checkpoint.save(root / "ntaau_lr.pt", model, {"jitter_pattern": "mnss"})
+    ckpt = checkpoint.save(root / "ntaau_lr.pt", model, {"jitter_pattern": "grid"})
     out = root / "bundle"
     assert main(["export", str(ckpt), "--out", str(out), "--data", str(data), "--resolution", f"{2 * w}x{2 * h}",
                  "--golden-frames", str(GOLDEN_FRAMES), "--no-progress"]) == 0

@@ -166,7 +166,7 @@ CHAINS = {"1.5": ("1.5", (64, 36), (96, 54)), "1.7": ("1.7", (40, 24), (68, 41))
 @pytest.fixture(scope="module", params=list(CHAINS))
 def bundle(request, tmp_path_factory):
     """A randomly initialised ntaau_lr model at the scale, exported with 4 golden frames from a tiny
-    render at the bundle's LR size (Halton jitter: mnss's exists at integer scales only)."""
+    render at the bundle's LR size (Halton jitter: grid exists at integer scales only)."""
     from mnss_kit.cli import main
     from mnss_kit.model import checkpoint
 

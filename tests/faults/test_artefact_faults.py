@@ -44,7 +44,7 @@ class Artefacts:
 def _save_model(path: Path, seed: int, **overrides) -> Path:
     torch.manual_seed(seed)
     config = dataclasses.replace(load_model_config("mnss_x2_tiny"), **overrides)
-    return checkpoint.save(path, randomise_convs(build_model(config).eval()), {"jitter_pattern": "mnss"})
+    return checkpoint.save(path, randomise_convs(build_model(config).eval()), {"jitter_pattern": "grid"})
 
 
 def _cli(*argv) -> None:

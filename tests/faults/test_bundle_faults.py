@@ -30,7 +30,7 @@ def bundle(tmp_path_factory, synthetic_dataset) -> Path:
     root = tmp_path_factory.mktemp("bundle_faults")
     torch.manual_seed(0)
     model = randomise_convs(build_model(load_model_config("mnss_x2_tiny")).eval())
-    ckpt = checkpoint.save(root / "tiny.pt", model, {"jitter_pattern": "mnss"})
+    ckpt = checkpoint.save(root / "tiny.pt", model, {"jitter_pattern": "grid"})
     out = root / "bundle"
     from mnss_kit.cli import main
 

@@ -54,7 +54,7 @@ def bundle(tmp_path_factory, synthetic_dataset):
 
     root = tmp_path_factory.mktemp("checked_reads_bundle")
     torch.manual_seed(0)
-    ckpt = checkpoint.save(root / "tiny.pt", build_model(load_model_config("mnss_x2_tiny")).eval(), {"jitter_pattern": "mnss"})
+    ckpt = checkpoint.save(root / "tiny.pt", build_model(load_model_config("mnss_x2_tiny")).eval(), {"jitter_pattern": "grid"})
     assert main(["export", str(ckpt), "--out", str(root / "b"), "--resolution", "64x48", "--data", str(synthetic_dataset),
                  "--golden-frames", "2", "--no-progress"]) == 0
     return root / "b"

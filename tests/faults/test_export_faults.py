@@ -27,7 +27,7 @@ def made(tmp_path_factory, synthetic_dataset) -> dict[str, Path]:
     root = tmp_path_factory.mktemp("export_faults")
     torch.manual_seed(0)
     model = randomise_convs(build_model(load_model_config("mnss_x2_tiny")).eval())
-    ckpt = checkpoint.save(root / "tiny.pt", model, {"jitter_pattern": "mnss"})
+    ckpt = checkpoint.save(root / "tiny.pt", model, {"jitter_pattern": "grid"})
     qdir = root / "int8"
     assert main(["quantize", str(ckpt), "--data", str(synthetic_dataset), "--out", str(qdir), "--frames", "2",
                  "--pipeline-frames", "0", "--no-progress"]) == 0

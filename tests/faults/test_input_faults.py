@@ -29,7 +29,7 @@ LFS_POINTER = ("version https://git-lfs.github.com/spec/v1\n"
 def tiny_ckpt(tmp_path_factory) -> Path:
     torch.manual_seed(0)
     model = randomise_convs(build_model(load_model_config("mnss_x2_tiny")).eval())
-    return checkpoint.save(tmp_path_factory.mktemp("input_faults") / "tiny.pt", model, {"jitter_pattern": "mnss"})
+    return checkpoint.save(tmp_path_factory.mktemp("input_faults") / "tiny.pt", model, {"jitter_pattern": "grid"})
 
 
 def _binary(path: Path) -> Path:

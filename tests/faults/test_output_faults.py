@@ -66,7 +66,7 @@ def tiny_ckpt(tmp_path_factory) -> Path:
 
     torch.manual_seed(0)
     model = randomise_convs(build_model(load_model_config("mnss_x2_tiny")).eval())
-    return checkpoint.save(tmp_path_factory.mktemp("faults_model") / "tiny.pt", model, {"jitter_pattern": "mnss"})
+    return checkpoint.save(tmp_path_factory.mktemp("faults_model") / "tiny.pt", model, {"jitter_pattern": "grid"})
 
 
 @pytest.fixture

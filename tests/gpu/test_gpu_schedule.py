@@ -32,7 +32,7 @@ def test_sequence_on_mesa_matches_reference(mesa, ref):
     scale, h, w = 2, 6, 9
     stage = random_stage(rng, scale)
     boundary = NpuBoundary(1 / 255, -128, 1 / 255, -128, "xnnpack")
-    jitters = pattern_jitters("mnss", scale)
+    jitters = pattern_jitters("grid", scale)
     state = None
     for t in range(4):
         frame = {

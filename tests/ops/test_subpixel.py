@@ -59,8 +59,8 @@ def test_insert_extract_round_trip(pattern, scale):
     assert torch.equal(layers.extract_samples(layers.jittered_upsample(lr, jit, scale), jit, scale), lr)
 
 
-@pytest.mark.parametrize("pattern, scale", [("mnss", 2), ("mnss", 3)])
-def test_mnss_pattern_covers_the_tile(pattern, scale):
+@pytest.mark.parametrize("pattern, scale", [("grid", 2), ("grid", 3)])
+def test_grid_pattern_covers_the_tile(pattern, scale):
     """Over one period every HR pixel is sampled by some frame."""
     jit = torch.from_numpy(jitters(pattern, scale))
     assert layers.sample_mask(jit, scale, h, w).any(dim=0).all()

@@ -24,7 +24,7 @@ def tiny_checkpoint(tmp_path_factory):
     torch.manual_seed(0)
     model = build_model(MNSSConfig(**TINY))
     randomise_convs(model, prefixes=("",))  # a fresh model's last conv is zero: give every layer something to quantize
-    return checkpoint.save(tmp_path_factory.mktemp("ckpt") / "tiny.pt", model, {"jitter_pattern": "mnss"})
+    return checkpoint.save(tmp_path_factory.mktemp("ckpt") / "tiny.pt", model, {"jitter_pattern": "grid"})
 
 
 def quantize(args, capsys):

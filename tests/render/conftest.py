@@ -8,7 +8,7 @@ import pytest
 
 TINY_CONFIG = """
 version: 1
-defaults: {lr_size: [64, 36], scale: 2, jitter: mnss, hr_samples: 16, fps: 30, frames: 4}
+defaults: {lr_size: [64, 36], scale: 2, jitter: grid, hr_samples: 16, fps: 30, frames: 4}
 sequences:
   - {name: arena, scene: arena, seed: 11, particles: true, start_time: 0.5, camera: cam.yaml}
   - {name: town, scene: town, seed: 12, animated_light: true, frames: 3, start_time: 0.3}

@@ -32,7 +32,7 @@ def test_defaults_merge_and_overrides(tmp_path):
     ("sequences:\n  - {name: a, scene: arena, colour: red}\n", r"unknown key 'sequences\[0\].colour'"),
     ("sequences:\n  - {name: a, scene: arena, hr_samples: 10}\n", "hr_samples must be a square"),
     ("sequences:\n  - {name: a, scene: arena, jitter: sobol}\n", "unknown jitter pattern"),
-    ("sequences:\n  - {name: a, scene: arena, scale: 4}\n", "mnss jitter pattern exists for scales 2 and 3"),
+    ("sequences:\n  - {name: a, scene: arena, scale: 4}\n", "grid jitter pattern exists for scales 2 and 3"),
     ("sequences:\n  - {name: a, scene: arena, frames: 0}\n", "frames must be >= 1"),
     ("sequences:\n  - {name: a, scene: castle}\n", "neither built-in"),
     ("sequences:\n  - {name: a, scene: level.glb}\n", "needs a camera-path YAML"),

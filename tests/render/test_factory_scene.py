@@ -13,7 +13,7 @@ from mnss_kit.render.writer import render_dataset
 
 CONFIG = """
 version: 1
-defaults: {lr_size: [48, 27], scale: 2, jitter: mnss, hr_samples: 1, fps: 30, frames: 3}
+defaults: {lr_size: [48, 27], scale: 2, jitter: grid, hr_samples: 1, fps: 30, frames: 3}
 sequences:
   - {name: factory, scene: factory, seed: 3, particles: true, animated_light: true}
 """

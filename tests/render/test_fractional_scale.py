@@ -101,12 +101,12 @@ def test_halton_phase_count_grows_with_the_scale():
 
 def test_integer_jitter_patterns_unchanged():
     # the published offsets: MNSS x2 sub-pixels (0,0) (1,1) (1,0) ...; Halton(2, 3) - 0.5 from index 1
-    np.testing.assert_array_equal(jitter_sequence("mnss", 2, 3), [[-0.25, -0.25], [0.25, 0.25], [0.25, -0.25]])
+    np.testing.assert_array_equal(jitter_sequence("grid", 2, 3), [[-0.25, -0.25], [0.25, 0.25], [0.25, -0.25]])
     np.testing.assert_allclose(jitter_sequence("halton", 2, 2), [[0.0, -1 / 6], [-0.25, 1 / 6]])
-    assert period("mnss", 2) == 12 and period("mnss", 3) == 9 and period("halton", 2) == 32
+    assert period("grid", 2) == 12 and period("grid", 3) == 9 and period("halton", 2) == 32
     assert jitter_sequence("halton", 2.0, 40).tolist() == jitter_sequence("halton", 2, 40).tolist()
-    with pytest.raises(UserError, match="mnss jitter pattern exists for scales 2 and 3, not 1.5"):
-        jitter_sequence("mnss", 1.5, 4)
+    with pytest.raises(UserError, match="grid jitter pattern exists for scales 2 and 3, not 1.5"):
+        jitter_sequence("grid", 1.5, 4)
 
 
 # -- render config ---------------------------------------------------------------------------------
@@ -126,7 +126,7 @@ def test_display_size_is_primary_in_a_config(tmp_path):
 @pytest.mark.parametrize("seq, message", [
     ("{name: a, scene: arena, scale: 1.7, hr_size: [1280, 720], lr_size: [752, 424]}", "disagree at scale 1.7"),
     ("{name: a, scene: arena, scale: 2, hr_size: [1281, 720]}", "not divisible by the integer scale 2"),
-    ("{name: a, scene: arena, scale: 1.5, jitter: mnss}", "sequence 'a': the mnss jitter pattern exists for scales 2 and 3"),
+    ("{name: a, scene: arena, scale: 1.5, jitter: grid}", "sequence 'a': the grid jitter pattern exists for scales 2 and 3"),
     ("{name: a, scene: arena, scale: 0.5}", "scale 0.5 is outside"),
 ])
 def test_bad_size_and_scale_combinations(tmp_path, seq, message):
@@ -193,7 +193,7 @@ def test_integer_scale_meta_is_as_before(tmp_path):
     from mnss_kit.render.scenes import build_scene
     from mnss_kit.render.writer import frame_aspect, sequence_meta
 
-    base = "version: 1\nsequences:\n  - {name: a, scene: arena, frames: 3, jitter: mnss, %s}\n"
+    base = "version: 1\nsequences:\n  - {name: a, scene: arena, frames: 3, jitter: grid, %s}\n"
     metas = []
     for size in ("lr_size: [64, 36], scale: 2", "lr_size: [64, 36], scale: 2.0", "hr_size: [128, 72], scale: 2"):
         cfg = load_render_config(write_config(tmp_path, base % size))

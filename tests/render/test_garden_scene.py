@@ -28,7 +28,7 @@ CAMERA_Z, WALL_Z, FOV = 2.0, -5.0, 60.0
 
 TINY = """
 version: 1
-defaults: {lr_size: [64, 36], scale: 2, jitter: mnss, hr_samples: 4, fps: 30, frames: 5}
+defaults: {lr_size: [64, 36], scale: 2, jitter: grid, hr_samples: 4, fps: 30, frames: 5}
 sequences:
   - {name: garden, scene: garden, seed: 401, particles: true, animated_light: true, start_time: 0.3}
   - {name: plaza, scene: plaza, seed: 21, particles: true, frames: 3}

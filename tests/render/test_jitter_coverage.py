@@ -6,7 +6,7 @@ import pytest
 from mnss_kit.ops import jitter
 
 
-@pytest.mark.parametrize("pattern,scale", [("mnss", 2), ("mnss", 3), ("halton", 2), ("halton", 3), ("halton", 4)])
+@pytest.mark.parametrize("pattern,scale", [("grid", 2), ("grid", 3), ("halton", 2), ("halton", 3), ("halton", 4)])
 def test_pattern_covers_every_subpixel(pattern, scale):
     n = jitter.period(pattern, scale)
     offsets = jitter.jitter_sequence(pattern, scale, n)

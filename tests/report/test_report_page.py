@@ -76,7 +76,7 @@ def _stress(root):
     doc = {"format": "mnss-kit-stress", "version": 1, "settings": {"recovery_tolerance_db": 0.5}, "methods": list(methods),
            "not_covered": dict(NOT_COVERED),
            "scenarios": {"camera_cut": {"case": "camera cut <history>", "frames": 3, "cuts": [1], "events": [1],
-                                        "jitter_pattern": "mnss", "methods": methods,
+                                        "jitter_pattern": "grid", "methods": methods,
                                         "per_frame_psnr": {m: [25.0, 20.0, 29.0] for m in methods}}}}
     rng = np.random.default_rng(0)
     reference = rng.random((32, 32, 3))

@@ -29,7 +29,7 @@ def _rows(method, psnrs, resets=(0,)):
 def _info(methods, frames, cuts=()):
     stats = {"psnr": 30.0, "ssim": 0.9, "if_ssim": 0.95, "temporal_error": 0.01, "disocclusion_psnr": 20.0,
              "disocclusion_l1": 0.05, "disoccluded_pixels": 10}
-    return {"frames": frames, "cuts": list(cuts), "jitter_pattern": "mnss", "methods": {m: dict(stats) for m in methods}}
+    return {"frames": frames, "cuts": list(cuts), "jitter_pattern": "grid", "methods": {m: dict(stats) for m in methods}}
 
 
 def test_a_pan_end_given_in_seconds_is_an_event_of_the_scenario():
@@ -53,7 +53,7 @@ def _doc():
             "static_camera": {"model": stats(33.0, 0.99, []), "bicubic": stats(29.0, 0.91, []), "taau": stats(32.0, 0.98, [])}}
     return {"format": "mnss-kit-stress", "version": 1, "settings": {"recovery_tolerance_db": 0.5},
             "methods": ["model", "bicubic", "taau"], "not_covered": dict(NOT_COVERED),
-            "scenarios": {name: {"case": name.replace("_", " "), "frames": 4, "cuts": [], "events": [2], "jitter_pattern": "mnss",
+            "scenarios": {name: {"case": name.replace("_", " "), "frames": 4, "cuts": [], "events": [2], "jitter_pattern": "grid",
                                  "methods": m, "per_frame_psnr": {k: [28.0, 29.0, math.inf, 30.0] for k in m}}
                           for name, m in scen.items()}}
 

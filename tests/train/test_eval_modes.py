@@ -20,7 +20,7 @@ REPO = Path(__file__).resolve().parents[2]
 # 24x16 at each mode: 36x24 at 1.5, 48x32 at 2 (exact ratios; IF-SSIM needs 22 HR pixels a side)
 TINY = """
 version: 1
-defaults: {lr_size: [24, 16], scale: 2, jitter: mnss, hr_samples: 1, frames: 3, start_time: 0.5, camera: cam.yaml}
+defaults: {lr_size: [24, 16], scale: 2, jitter: grid, hr_samples: 1, frames: 3, start_time: 0.5, camera: cam.yaml}
 sequences:
   - {name: arena_modes, scene: arena, seed: 101}
 """
@@ -53,7 +53,7 @@ def test_modes_of_the_baselines_render_evaluate_and_write_json(tiny_config, tmp_
         assert Path(entry["json"]).is_file()
         meta = json.loads(next(Path(entry["data"]).glob("*/meta.json")).read_text())
         assert meta["scale"] == entry["scale"]
-        assert meta["jitter_pattern"] == ("halton" if entry["scale"] == 1.5 else "mnss")
+        assert meta["jitter_pattern"] == ("halton" if entry["scale"] == 1.5 else "grid")
     # a second run reuses the renders and evaluates again
     assert script.run(argv) == 0
 

@@ -60,7 +60,7 @@ def test_checkpoint_is_self_describing(write_experiment, tmp_path, synthetic_dat
     experiment, _ = load_experiment(write_experiment())
     final = train(experiment, tmp_path / "run", progress=False)
     model, record = checkpoint.load(final)
-    assert record["config"]["recon_width"] == 8 and record["scale"] == 2 and record["jitter_pattern"] == "mnss"
+    assert record["config"]["recon_width"] == 8 and record["scale"] == 2 and record["jitter_pattern"] == "grid"
     assert record["data_fingerprint"] == dataset_fingerprint(synthetic_dataset)
     assert record["code_version"] and record["train"]["lr"] == 1e-3 and record["train"]["window"] == 3
     summary = record["training"]

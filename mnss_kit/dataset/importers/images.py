@@ -22,7 +22,7 @@ from ...config import load_config, resolve_config_path
 from ...errors import UserError
 from ...ops.jitter import PATTERNS, jitter_sequence
 from ...ops.scale import hr_size_for, lr_size_for, parse_scale
-from ..format import (BUFFERS, COLOUR_BUFFERS, FORMAT_NAME, FORMAT_VERSION, REQUIRED_BUFFERS, FrameMeta, MotionConvention, SequenceMeta,
+from ..format import (BUFFERS, current_pattern, COLOUR_BUFFERS, FORMAT_NAME, FORMAT_VERSION, REQUIRED_BUFFERS, FrameMeta, MotionConvention, SequenceMeta,
                       write_buffer, write_meta)
 from .imagefiles import read_image
 from .publish import ImportResult, publish
@@ -110,6 +110,7 @@ def load_mapping(name_or_path: str) -> ImageMapping:
                 raise UserError(f"{path}: buffers has no '{res}/{name}' (required: lr/color, lr/depth, lr/motion, hr/reference)")
     for pair, keys in SHARED_CONVENTIONS.items():
         _same(mapping.buffers, pair, keys, str(path))
+    mapping.jitter.pattern = current_pattern(mapping.jitter.pattern)  # an earlier spelling (mnss) as today's
     if mapping.jitter.file is None and mapping.jitter.pattern not in PATTERNS:
         raise UserError(f"{path}: jitter needs a file, or a pattern the offsets are generated from ({', '.join(PATTERNS)})")
     if mapping.scale < 2 and float(mapping.scale).is_integer():

@@ -23,7 +23,7 @@ final class MiniBundle {
           "lr_size": [4, 2],
           "hr_size": [8, 4],
           "conventions": {"sizes": "[width, height]"},
-          "jitter": {"pattern": "mnss", "period": 4, "units": "lr_pixels", "sequence": [
+          "jitter": {"pattern": "grid", "period": 4, "units": "lr_pixels", "sequence": [
             {"index": 0, "offset": [-0.25, -0.25], "subpixel": [0, 0]},
             {"index": 1, "offset": [0.25, 0.25], "subpixel": [1, 1]},
             {"index": 2, "offset": [0.25, -0.25], "subpixel": [1, 0]},
