@@ -134,7 +134,7 @@ def main() -> int:
 
     from mnss_kit.dataset.format import read_meta
     from mnss_kit.emulate.frame_loop import Emulator
-    from mnss_kit.emulate.sequence import sequence_frames
+    from mnss_kit.emulate.run import sequence_frames
 
     load_start = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="mnss-bench-emulate-") as tmp:

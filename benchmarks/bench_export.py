@@ -26,13 +26,13 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from mnss_kit.export.pipeline import ExportRequest, export
+from mnss_kit.export.run import ExportRequest, export
 from mnss_kit.fileio import atomic_write_json
 from mnss_kit.model import checkpoint
 from mnss_kit.model.config import load_model_config
 from mnss_kit.model.families import build_model
 from mnss_kit.render.config import load_render_config
-from mnss_kit.render.writer import render_dataset
+from mnss_kit.render.run import render_dataset
 
 BUDGET_S = 60.0
 

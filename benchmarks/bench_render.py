@@ -24,7 +24,7 @@ from mnss_kit.render import gpu  # noqa: E402
 from mnss_kit.render.config import load_render_config  # noqa: E402
 from mnss_kit.render.renderer import Renderer  # noqa: E402
 from mnss_kit.render.scenes import build_scene  # noqa: E402
-from mnss_kit.render.writer import render_dataset  # noqa: E402
+from mnss_kit.render.run import render_dataset  # noqa: E402
 
 
 def main() -> int:

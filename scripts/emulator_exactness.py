@@ -18,7 +18,7 @@ import numpy as np
 
 from mnss_kit.dataset.format import read_meta
 from mnss_kit.emulate.frame_loop import Emulator
-from mnss_kit.emulate.sequence import sequence_frames
+from mnss_kit.emulate.run import sequence_frames
 from mnss_kit.ops.runtimes import RUNTIMES
 
 

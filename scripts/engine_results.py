@@ -51,7 +51,7 @@ LEAD = "Use this page to see how the shipped models do on inputs as a game engin
 def evaluate_entry(models: list[str], data: Path, reference: str, crops: Path | None, max_frames: int | None = FRAMES) -> dict:
     from mnss_kit.eval.baselines import baseline_methods
     from mnss_kit.eval.methods import model_method
-    from mnss_kit.eval.run import evaluate
+    from mnss_kit.eval.loop import evaluate
     from mnss_kit.model.checkpoint import load
 
     methods = {}
@@ -120,7 +120,7 @@ def stress_data() -> Path:
     import dataclasses
 
     from mnss_kit.render.config import load_render_config
-    from mnss_kit.render.writer import render_dataset
+    from mnss_kit.render.run import render_dataset
 
     cfg = load_render_config("stress")
     cfg = dataclasses.replace(cfg, sequences=[s for s in cfg.sequences if s.name in STRESS])

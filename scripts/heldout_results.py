@@ -62,7 +62,7 @@ def evaluate_entry(models: list[str], data: Path, crops: Path | None, int8: bool
     from mnss_kit.bench.run import export_at_size, quality_table
     from mnss_kit.eval.baselines import baseline_methods
     from mnss_kit.eval.methods import model_method
-    from mnss_kit.eval.run import evaluate
+    from mnss_kit.eval.loop import evaluate
     from mnss_kit.model.checkpoint import load
 
     methods = {}
@@ -219,7 +219,7 @@ def means_table(doc: dict) -> list[str]:
 def cost_rows(doc: dict) -> list[str]:
     """The means table's cost rows: each model's estimated frame ms per device profile (TAAU and
     bicubic run no network and are not estimated)."""
-    from mnss_kit.split.api import DEFAULT_RESOLUTION_TEXT
+    from mnss_kit.split.inputs import DEFAULT_RESOLUTION_TEXT
 
     costs = model_costs(doc)
     devices = list(next(iter(costs.values()))["device_ms"])
@@ -288,7 +288,7 @@ def model_costs(doc: dict) -> dict[str, dict]:
     estimates, not measurements)."""
     from mnss_kit.bench.run import model_cost
     from mnss_kit.model.checkpoint import load
-    from mnss_kit.split.api import DEFAULT_RESOLUTION
+    from mnss_kit.split.inputs import DEFAULT_RESOLUTION
     from mnss_kit.split.device import device_names
 
     costs = {}
@@ -301,7 +301,7 @@ def model_costs(doc: dict) -> dict[str, dict]:
 
 def cost_section(doc: dict) -> list[str]:
     """Each model's cost, as a table, and a chart of the mean PSNR table against it."""
-    from mnss_kit.split.api import DEFAULT_RESOLUTION_TEXT
+    from mnss_kit.split.inputs import DEFAULT_RESOLUTION_TEXT
 
     costs = model_costs(doc)
     devices = list(next(iter(costs.values()))["device_ms"])

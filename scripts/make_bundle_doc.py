@@ -29,7 +29,7 @@ LIST_KEEP = 2
 
 def export_example(root: Path) -> Path:
     from mnss_kit.dataset.synthetic import write_synthetic_sequence
-    from mnss_kit.export.pipeline import ExportRequest, export
+    from mnss_kit.export.run import ExportRequest, export
     from mnss_kit.model import checkpoint
     from mnss_kit.model.config import load_model_config
     from mnss_kit.model.families import build_model, randomise_convs

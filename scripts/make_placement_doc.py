@@ -19,7 +19,7 @@ sys.path.insert(0, str(REPO))
 
 from mnss_kit.fileio import atomic_output_path, atomic_write_text  # noqa: E402
 from mnss_kit.model.families import family_named  # noqa: E402
-from mnss_kit.split.api import load_model, parse_resolution  # noqa: E402
+from mnss_kit.split.inputs import load_model, parse_resolution  # noqa: E402
 from mnss_kit.split.dataflow import trace_model  # noqa: E402
 from mnss_kit.split.device import device_names, load_device  # noqa: E402
 from mnss_kit.split.plan import ESTIMATE_NOTE, plan_flow  # noqa: E402

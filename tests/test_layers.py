@@ -1,6 +1,7 @@
-"""The package layout keeps its layers: ops/ is pure numpy, emulate/ never needs torch, and no
-stage imports a later one (render -> dataset -> model -> train -> eval -> quantize -> split ->
-export -> emulate -> bench -> stress -> report)."""
+"""The package layout keeps its layers: ops/ is pure numpy, emulate/ never needs torch, no stage
+imports a later one (render -> dataset -> model -> train -> eval -> finetune -> quantize -> split ->
+export -> emulate -> bench -> stress -> size -> report), and every stage names its modules alike: a
+``command.py`` (the command line) and a ``run.py`` (the entry function the command runs)."""
 
 import ast
 from pathlib import Path
@@ -8,13 +9,19 @@ from pathlib import Path
 import pytest
 
 PKG = Path(__file__).resolve().parent.parent / "mnss_kit"
-STAGES = ["render", "dataset", "model", "train", "eval", "finetune", "quantize", "split", "export", "emulate", "bench", "stress", "report"]
+STAGES = ["render", "dataset", "model", "train", "eval", "finetune", "quantize", "split", "export", "emulate", "bench", "stress",
+          "size", "report"]
 # Stages that may be imported from anywhere: shared foundations, not pipeline steps.
-SHARED = {"ops", "metrics", "config", "errors", "fileio", "resources", "shaders", "gpu"}
+SHARED = {"ops", "metrics", "config", "errors", "fileio", "resources", "shaders", "gpu", "zoo"}
+# Stages without one entry function: ``mnss-kit data`` runs several actions, each in the module named
+# by what it does (check, cache, importers, variants).
+NO_ENTRY_MODULE = {"dataset"}
 # The on-disk dataset format is a contract: the renderer writes it, every later stage reads it.
 # So is the family table's list of the buffers each family reads (docs/dataset.md, "Buffers each
 # model family needs"): data check names them (model.families is light: no torch at import).
-CONTRACT_MODULES = {"mnss_kit.dataset.format", "mnss_kit.dataset.exr", "mnss_kit.model.families"}
+# So is a size file (``mnss-kit size``'s choice), which any command taking a checkpoint resolves
+# (model.checkpoint; size.choice imports no stage).
+CONTRACT_MODULES = {"mnss_kit.dataset.format", "mnss_kit.dataset.exr", "mnss_kit.model.families", "mnss_kit.size.choice"}
 
 
 def imported_modules(path: Path) -> set[str]:
@@ -48,6 +55,24 @@ def stage_of(module: str) -> str | None:
     if parts[0] != "mnss_kit" or len(parts) < 2:
         return None
     return parts[1]
+
+
+def test_every_package_is_a_stage_or_shared():
+    packages = {p.parent.name for p in PKG.glob("*/__init__.py")}
+    assert packages - set(STAGES) - SHARED == set()
+    assert len(STAGES) == len(set(STAGES))
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_every_stage_has_a_command_and_a_run_module_the_command_uses(stage):
+    """One name per concept: ``command.py`` the command line, ``run.py`` the entry function it runs."""
+    root = PKG / stage
+    assert (root / "command.py").is_file(), f"{stage}/ has no command.py"
+    if stage in NO_ENTRY_MODULE:
+        assert not (root / "run.py").exists()
+        return
+    assert (root / "run.py").is_file(), f"{stage}/ has no run.py"
+    assert f"mnss_kit.{stage}.run" in package_imports(root / "command.py"), f"{stage}/command.py does not use run.py"
 
 
 @pytest.mark.parametrize("path", python_files("ops"), ids=lambda p: p.name)
@@ -223,7 +248,7 @@ def test_metrics_package_and_emulator_load_without_torch():
     import subprocess
     import sys
 
-    code = ("import sys, mnss_kit.metrics, mnss_kit.emulate.sequence, mnss_kit.emulate.compare; "
+    code = ("import sys, mnss_kit.metrics, mnss_kit.emulate.run, mnss_kit.emulate.compare; "
             "assert 'torch' not in sys.modules, 'torch was imported'")
     result = subprocess.run([sys.executable, "-c", code], cwd=PKG.parent, capture_output=True, text=True)
     assert result.returncode == 0, result.stderr

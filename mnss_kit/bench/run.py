@@ -228,7 +228,7 @@ def model_label(name: str) -> str:
 def _rendered(config: str, overrides: list[str], root: Path, progress: bool) -> Path:
     """The render config ``config`` (with ``overrides``) rendered into ``root`` (once; reused afterwards)."""
     from ..render.config import load_render_config
-    from ..render.writer import render_dataset
+    from ..render.run import render_dataset
 
     out = root / "_".join([config, *(o.replace("=", "") for o in overrides)])  # e.g. test_x2_frames30
     render_dataset(load_render_config(config, overrides or None), out, progress=progress)  # skips frames already present
@@ -236,7 +236,7 @@ def _rendered(config: str, overrides: list[str], root: Path, progress: bool) -> 
 
 
 def _calibration_data(root: Path, scale: int, progress: bool) -> Path:
-    from ..quantize.api import render_calibration_data
+    from ..quantize.run import render_calibration_data
 
     out = root / ("calibration" if scale == 2 else f"calibration_x{scale}")
     # scale= too: render_calibration_data appends its own scale override after ours
@@ -246,7 +246,7 @@ def _calibration_data(root: Path, scale: int, progress: bool) -> Path:
 def baseline_records(data: Path, settings: Settings) -> list[dict]:
     from ..dataset import format as fmt
     from ..eval.baselines import baseline_methods
-    from ..eval.run import evaluate
+    from ..eval.loop import evaluate
 
     scale = fmt.read_meta(fmt.find_sequences(data)[0]).scale
     result = evaluate(baseline_methods(scale), data, scale=scale, max_frames=settings.max_frames, progress=False)
@@ -266,7 +266,7 @@ def _benched(records: dict, name: str) -> bool:
 def model_records(name: str, data: Path, calibration: Path, settings: Settings, work: Path) -> list[dict]:
     """The fp32 and int8 records of one checkpoint."""
     from ..eval.methods import model_method
-    from ..eval.run import evaluate
+    from ..eval.loop import evaluate
     from ..model.checkpoint import digest, load
     from ..model.families import family_of
     from .latency import npu_latency
@@ -295,7 +295,7 @@ def int8_at_size(model, calibration: Path, data: Path, name: str):
     """A copy of ``model`` whose NPU stage is quantized (minmax) on ``calibration`` and runs in
     LiteRT's reference kernels at ``data``'s HR size."""
     from ..model.families import family_of, npu_module
-    from ..quantize.api import CALIBRATION_SAMPLES, calibration_samples, int8_model, open_data
+    from ..quantize.run import CALIBRATION_SAMPLES, calibration_samples, int8_model, open_data
     from ..quantize.stage import QuantizeOptions, quantize_module
 
     samples = calibration_samples(model, open_data(calibration, model.scale, family=family_of(model)), CALIBRATION_SAMPLES)
@@ -354,7 +354,7 @@ def device_estimates(model, devices: tuple[str, ...], hr_size: tuple[int, int]) 
 def export_at_size(name: str, data: Path, calibration: Path, bundle: Path) -> Path:
     """``mnss-kit export`` of ``name`` into ``bundle`` at ``data``'s HR size, calibrated on ``calibration``."""
     from ..dataset import format as fmt
-    from ..export.pipeline import ExportRequest, export
+    from ..export.run import ExportRequest, export
 
     meta = fmt.read_meta(fmt.find_sequences(data)[0])
     w, h = meta.hr_size  # the data's display size (at a fractional scale not always round(lr * s))
@@ -366,7 +366,7 @@ def emulated(name: str, data: Path, calibration: Path, settings: Settings, bundl
     """The int8 model through its bundle and the emulator: mean PSNR of the displayed frames and the
     median emulated seconds per frame (the desktop emulator's time)."""
     from ..emulate.frame_loop import Emulator
-    from ..emulate.sequence import run_dataset
+    from ..emulate.run import run_dataset
 
     export_at_size(name, data, calibration, bundle)
     report = run_dataset(Emulator(bundle), data, frames=settings.emulated_frames)

@@ -7,7 +7,7 @@
 ``npu_graph``       ``npu.tflite`` read into plain data; ``interpreter`` runs it op by op
 ``kernels``         integer-exact int8 kernels under a runtime's formulas
 ``fast``, ``fast_gpu``  faster paths with results identical to the kernels and GPU reference
-``sequence``        dataset sequences through the emulator: PNGs, metrics, dumps
+``run``             dataset sequences through the emulator (``run_dataset``): PNGs, metrics, dumps
 ``dump``, ``compare``   tensor dumps (emulator and device) and their layer-by-layer comparison
 ``command``         ``mnss-kit emulate``
 """

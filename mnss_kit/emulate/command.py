@@ -65,7 +65,7 @@ def _emulate(args: argparse.Namespace) -> int:
     import logging
 
     from .frame_loop import Emulator
-    from .sequence import run_dataset
+    from .run import run_dataset
 
     profile = args.npu_profile or (runtime_names("onnxruntime")[0] if args.npu_backend == "onnxruntime" else DEFAULT_RUNTIME)
     emulator = Emulator(args.bundle, profile, args.npu_backend, args.gpu_backend)
@@ -121,7 +121,7 @@ def _is_golden_sequence(bundle, seq_dir: Path, meta, emulator, count: int) -> bo
     """The first ``count`` frames of the sequence are the golden inputs (as their textures hold them)."""
     import numpy as np
 
-    from .sequence import sequence_frames
+    from .run import sequence_frames
 
     if meta.scale != emulator.spec.scale or tuple(meta.lr_size) != emulator.spec.lr_size or meta.frame_count < count:
         return False  # run_dataset refuses or skips it with its own line

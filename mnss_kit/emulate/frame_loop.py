@@ -2,7 +2,7 @@
 
     emulator = Emulator("bundle/", npu_profile="tflite-ref", npu_backend="numpy", gpu_backend="numpy")
     outputs = emulator.run_frame({"color": ..., "depth": ..., "motion": ..., "jitter": ..., "reset": False})
-    metrics = run_dataset(emulator, "data/corridor_01", out_dir="emulated/")  # emulate.sequence
+    metrics = run_dataset(emulator, "data/corridor_01", out_dir="emulated/")  # emulate.run
 
 A frame is numpy: every ``input`` resource of the manifest (``(h, w, C)`` float32 at its size;
 for MNSS ``color`` display values, ``depth`` canonical depth, ``motion`` LR pixels), ``jitter``

@@ -1,6 +1,7 @@
 """Evaluation: the model against baselines on full sequences.
 
-``run.evaluate``   the loop (any ``{name: per-frame method}``), returns a summary dict
+``run``            ``evaluate_model``, the entry function: a checkpoint (or none) and the baselines over a dataset
+``loop.evaluate``  the loop (any ``{name: per-frame method}``), returns a summary dict
 ``baselines``      bicubic and TAAU with the model's per-frame interface
 ``methods``        the model and its no-history ablation as per-frame methods
 ``frames``         reading sequences into per-frame inputs (the one place that reads data)

@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
         if path:
             check_output(path, kind)
 
-    from .api import evaluate_model
+    from .run import evaluate_model
     from .report import format_table, write_csv, write_json
 
     result = evaluate_model(args.model, args.data, args.methods, max_frames=args.max_frames, flip=args.flip,

@@ -1,226 +1,80 @@
-"""The evaluation loop: every method, recurrently, over every frame of every sequence.
-
-``evaluate(methods_or_model, data_dir)`` is the entry point for the CLI and
-for other stages (quantize passes ``{"fp32": ..., "int8": ...}``).  A method
-is any per-frame callable ``method(frame, state) -> (output, aux, state)``
-(``docs/architecture.md``); its state starts as ``None`` in each sequence.
-All methods see the same frames in the same order, one frame at a time, so
-per-frame numbers are paired and ratios between methods come from one run.
-"""
+"""The eval stage's entry function: a checkpoint (or none) and the baselines over a dataset."""
 
 from __future__ import annotations
 
-import contextlib
-import math
-import sys
-from dataclasses import dataclass, replace
 from pathlib import Path
 
-import numpy as np
-import torch
 
-from ..dataset import format as fmt
-from ..errors import UserError
-from ..fileio import atomic_directory, portable_path
-from ..metrics.image import WINDOW_SIZE, ssim_image, to_image
-from ..metrics.pattern import phase_offset
-from ..metrics.psnr import psnr
-from ..metrics.temporal import DEPTH_TOLERANCE, POOL, SHADING_FLOOR, SHADING_WEBER, if_ssim, temporal_masks, temporal_scores
-from .crops import crop_frame_indices, write_crops
-from .frames import EvalFrame, check_reference, frame_count, iter_frames
-from .methods import Method, default_methods
-from .summary import summarize
+def evaluate_model(model_name: str, data_dir, methods: list[str] | None = None, max_frames: int | None = None,
+                   flip: bool = False, crops_dir=None, progress: bool = True, reference: str = "box",
+                   scale=None) -> dict:
+    """Run ``methods`` (default: the model, its no-history ablation and the baselines) over
+    ``data_dir``; ``model_name`` is a checkpoint path, a shipped name or ``none``; ``reference``
+    (box, taa, 4x) the HR buffer the metrics compare against; ``scale`` (``--scale``, a number or its
+    text, integer or fractional) the scale the data must have.  Returns the result of
+    :func:`.loop.evaluate`."""
+    from ..dataset import format as fmt
+    from ..errors import UserError
+    from ..ops.scale import parse_scale
+    from .baselines import BASELINES, baseline_methods
+    from .methods import default_methods
+    from .loop import evaluate
 
-
-# provenance keys of meta.json "scene" that name what a sequence tests (renderer and synthetic data)
-SCENE_TAGS = ("scenario", "scene", "generator", "camera", "particles", "animated_light", "cut_at")
-
-
-@dataclass
-class EvalOptions:
-    max_frames: int | None = None
-    flip: bool = False
-    crops_dir: Path | None = None
-    progress: bool = True
-    reference: str = "box"  # fmt.REFERENCE_BUFFERS: the HR buffer the metrics compare against
-
-
-@dataclass
-class _MethodTrack:
-    """What one method carries from frame to frame within a sequence."""
-
-    state: object = None
-    prev_output: np.ndarray | None = None
+    wanted_scale = None if scale is None else parse_scale(scale, "--scale")
+    if wanted_scale is not None:
+        data_scale = fmt.read_meta(fmt.find_sequences(data_dir)[0]).scale
+        if data_scale != wanted_scale:
+            raise UserError(f"{data_dir}: data is x{data_scale} but --scale is {wanted_scale}")
+    model, info = load_model(model_name, data_dir)
+    scale = info["scale"] if info else fmt.read_meta(fmt.find_sequences(data_dir)[0]).scale
+    available = default_methods(model, scale)
+    wanted = methods or list(available)
+    named = [m for m in wanted if m in BASELINES and m not in available]  # baselines run only when named (fsr2)
+    available.update(baseline_methods(scale, named))
+    missing = [m for m in wanted if m not in available]
+    if missing:
+        raise UserError(f"method(s) {', '.join(missing)} need a model (MODEL is 'none')")
+    return evaluate({name: available[name] for name in wanted}, data_dir, scale=scale, max_frames=max_frames, flip=flip,
+                    crops_dir=crops_dir, progress=progress, model_info=info, reference=reference)
 
 
-def evaluate(
-    methods_or_model,
-    data_dir: str | Path,
-    *,
-    scale: int | None = None,
-    max_frames: int | None = None,
-    flip: bool = False,
-    crops_dir: str | Path | None = None,
-    progress: bool = True,
-    model_info: dict | None = None,
-    reference: str = "box",
-) -> dict:
-    """Evaluate methods on every sequence under ``data_dir``; returns the summary dict.
+def load_model(name_or_path: str, data_dir: str):
+    """``(model, info)`` from a checkpoint, or ``(None, None)`` for 'none'."""
+    if name_or_path.lower() == "none":
+        return None, None
+    import logging
 
-    ``methods_or_model`` is a ``{name: method}`` dict, or a model (then the
-    methods are model, model_nohist, bicubic and taau).  ``scale`` is the
-    scale the methods expect; data at another scale is a UserError.  The
-    result has ``frames``, ``methods`` (means per method), ``sequences``
-    (per-sequence breakdowns), ``settings``, ``model`` (``model_info``) and
-    ``per_frame`` (one row per frame and method, for the CSV).  ``reference`` chooses what the
-    metrics compare against: ``box`` (hr/reference, the supersampled box filter), ``taa`` (the
-    native TAA frame, hr/reference_taa) or ``4x`` (4 rotated-grid samples, hr/reference_4x).
-    """
-    seq_dirs = fmt.find_sequences(data_dir)
-    metas = [fmt.read_meta(d) for d in seq_dirs]
-    for seq_dir, meta in zip(seq_dirs, metas):
-        check_reference(seq_dir, meta, reference)
-    data_scale = _common_scale(seq_dirs, metas, scale)
-    if isinstance(methods_or_model, torch.nn.Module):
-        methods = default_methods(methods_or_model, data_scale)
-    elif isinstance(methods_or_model, dict) and methods_or_model:
-        methods = dict(methods_or_model)
+    from ..dataset import format as fmt
+    from ..errors import UserError
+    from ..model.checkpoint import load, trained_patterns
+    from ..model.family import check_data_scale
+    from ..model.macs import count_macs
+
+    model, record = load(name_or_path)
+    scale = int(record.get("scale") or model.scale)
+    meta = fmt.read_meta(fmt.find_sequences(data_dir)[0])
+    if getattr(model, "takes_frame_scale", False):  # runs at the data's scale (frame key 'scale'; docs/architecture.md)
+        scale = meta.scale
     else:
-        raise TypeError("evaluate expects a model or a non-empty {name: method} dict")
-    opts = EvalOptions(max_frames, flip, Path(crops_dir) if crops_dir else None, progress, reference)
-    total = sum(frame_count(m, max_frames) for m in metas)
-
-    from tqdm import tqdm
-
-    rows: list[dict] = []
-    sequences: dict[str, dict] = {}
-    # crops are staged and moved into crops_dir at the end: a failed or killed run adds none
-    crops = atomic_directory(opts.crops_dir, merge=True) if opts.crops_dir else contextlib.nullcontext()
-    with crops as staging, tqdm(total=total, desc="eval", unit="frame", file=sys.stderr, disable=not progress) as bar:
-        staged = replace(opts, crops_dir=staging)
-        for seq_dir, meta in zip(seq_dirs, metas):
-            seq_rows, info = _run_sequence(seq_dir, meta, methods, staged, bar)
-            rows.extend(seq_rows)
-            sequences[seq_dir.name] = info
-    result = summarize(rows, sequences, list(methods))
-    result["settings"] = {
-        "data": [portable_path(d) for d in data_dir] if isinstance(data_dir, (list, tuple)) else portable_path(data_dir),
-        "scale": data_scale,
-        "max_frames": max_frames,
-        "reference": reference,  # box, taa or 4x: hr/reference, hr/reference_taa, hr/reference_4x
-        "flip": flip,
-        "if_ssim": {"pool": POOL, "depth_tolerance": DEPTH_TOLERANCE,
-                    "shading_threshold": f"{SHADING_FLOOR} + {SHADING_WEBER} * display_luma"},
-        "bicubic": "jitter-aware (samples placed at pixel centre + jitter)",
-    }
-    if model_info is not None:
-        result["model"] = model_info
-    result["per_frame"] = rows
-    return result
-
-
-def _common_scale(seq_dirs: list[Path], metas: list[fmt.SequenceMeta], expected: int | float | None) -> int | float:
-    scales = {m.scale for m in metas}
-    if expected is not None:
-        for d, m in zip(seq_dirs, metas):
-            if m.scale != expected:
-                raise UserError(f"{d}: data is x{m.scale} but the model is x{expected}")
-    if len(scales) != 1:
-        raise UserError(f"sequences under one dataset must share a scale, found {sorted(scales)}")
-    return scales.pop()
-
-
-def _run_sequence(
-    seq_dir: Path, meta: fmt.SequenceMeta, methods: dict[str, Method], opts: EvalOptions, bar
-) -> tuple[list[dict], dict]:
-    """All methods over one sequence -> (per-frame rows, sequence info)."""
-    if min(meta.hr_size) < POOL * WINDOW_SIZE:
-        raise UserError(f"{seq_dir}: HR frames of {meta.hr_size[0]}x{meta.hr_size[1]} are too small to evaluate "
-                        f"(IF-SSIM needs at least {POOL * WINDOW_SIZE} pixels per side)")
-    for method in methods.values():  # a fractional scale's output size is the sequence's, not lr * s
-        if hasattr(method, "set_output_size"):
-            method.set_output_size(meta.hr_size)
-        if hasattr(method, "set_scale"):  # a model that reads the frame key 'scale' runs at the data's
-            method.set_scale(meta.scale)
-    tracks = {name: _MethodTrack() for name in methods}
-    n = frame_count(meta, opts.max_frames)
-    cuts = [t for t in range(1, n) if meta.frames[t].reset]
-    crop_at = crop_frame_indices(n, cuts) if opts.crops_dir else set()
-    rows: list[dict] = []
-    reference_if_ssim: list[float] = []
-    prev: EvalFrame | None = None
-    for frame in iter_frames(seq_dir, meta, opts.max_frames, opts.reference):
-        masks = None
-        if prev is not None and not frame.reset:
-            masks = temporal_masks(frame.reference, prev.reference, frame.hr_depth, prev.hr_depth, frame.hr_motion)
-            reference_if_ssim.append(if_ssim(frame.reference, prev.reference, masks))
-        outputs = {}
-        for name, method in methods.items():
-            output = _run_method(name, method, tracks[name], frame, seq_dir)
-            rows.append(_frame_row(seq_dir.name, frame, name, output, tracks[name].prev_output, masks, opts.flip, meta.scale))
-            tracks[name].prev_output = output
-            outputs[name] = output
-        if frame.index in crop_at:
-            write_crops(opts.crops_dir, seq_dir.name, frame.index, frame.reference, outputs)
-        prev = frame
-        bar.update(1)
-    finite = [v for v in reference_if_ssim if not math.isnan(v)]
+        check_data_scale(record.get("family"), scale, meta.scale, str(data_dir))
+    trained = trained_patterns(record)  # by today's names (a shipped record may say mnss for grid)
+    pattern = ",".join(trained) or record.get("jitter_pattern")
+    if trained and meta.jitter_pattern not in trained:
+        logging.getLogger(__name__).warning(
+            "model trained with the '%s' jitter pattern, data uses '%s'", pattern, meta.jitter_pattern)
+    macs = record.get("macs") or count_macs(model).to_dict()
     info = {
-        "frames": n,
-        "scale": meta.scale,
-        "jitter_pattern": meta.jitter_pattern,
-        "cuts": cuts,
-        "tags": {k: meta.scene[k] for k in SCENE_TAGS if k in meta.scene},
-        "reference_if_ssim": float(np.mean(finite)) if finite else None,
+        "name": record.get("name") or Path(name_or_path).stem,
+        "source": str(name_or_path),
+        "family": record.get("family"),
+        "scale": scale,
+        "jitter_pattern": pattern,
+        "parameters": sum(p.numel() for p in model.parameters()),
+        "macs_per_pixel": macs["macs_per_pixel"],
+        "npu_macs_per_pixel": macs.get("npu_macs_per_pixel"),
+        "gpu_macs_per_pixel": macs.get("gpu_macs_per_pixel"),
+        "config": record.get("config"),
+        "data_fingerprint": record.get("data_fingerprint"),
+        "code_version": record.get("code_version"),
     }
-    return rows, info
-
-
-def _run_method(name: str, method: Method, track: _MethodTrack, frame: EvalFrame, seq_dir: Path) -> np.ndarray:
-    """One frame of one method -> ``(H, W, 3)`` display image clamped to [0, 1]."""
-    try:
-        with torch.no_grad():
-            output, _, track.state = method(frame.inputs, track.state)
-    except KeyError as e:
-        key = e.args[0] if e.args else None
-        if isinstance(key, str) and key not in frame.inputs:
-            raise UserError(f"{seq_dir}: method '{name}' needs the '{key}' buffer, which the dataset does not have") from None
-        raise
-    expected = (1, 3) + frame.reference.shape[:2]
-    if tuple(output.shape) != expected:
-        raise UserError(f"{seq_dir}: method '{name}' produced {tuple(output.shape)}, the reference is {expected} (wrong scale?)")
-    if not torch.isfinite(output).all():
-        raise UserError(f"{seq_dir}: method '{name}' produced NaN or infinite values at frame {frame.index}")
-    return np.clip(to_image(output), 0.0, 1.0)
-
-
-def _frame_row(seq: str, frame: EvalFrame, name: str, output: np.ndarray, prev_output, masks, flip: bool, scale: int) -> dict:
-    ref = frame.reference
-    row = {
-        "sequence": seq,
-        "frame": frame.index,
-        "method": name,
-        "reset": int(frame.reset),
-        "psnr": psnr(output, ref),
-        "ssim": ssim_image(output, ref),
-        # the s x s phases of an LR pixel exist at an integer scale only
-        "phase_offset": phase_offset(output, ref, scale) if isinstance(scale, int) else math.nan,
-        "if_ssim": math.nan,
-        "temporal_error": math.nan,
-        "disoccluded_pixels": 0,
-        "disocclusion_l1": math.nan,
-        "disocclusion_mse": math.nan,
-    }
-    if masks is not None and prev_output is not None:
-        row["if_ssim"], row["temporal_error"] = temporal_scores(output, prev_output, masks)
-        hole = masks.disoccluded
-        row["disoccluded_pixels"] = int(hole.sum())
-        if hole.any():
-            diff = (output - ref)[hole]
-            row["disocclusion_l1"] = float(np.abs(diff).mean())
-            row["disocclusion_mse"] = float((diff.astype(np.float64) ** 2).mean())
-    if flip:
-        from ..metrics.flip import flip_error
-
-        row["flip"] = flip_error(output, ref)
-    return row
+    return model, info

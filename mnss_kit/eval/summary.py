@@ -19,7 +19,7 @@ METRICS = ("psnr", "ssim", "if_ssim", "temporal_error", "phase_offset", "flip")
 
 
 def summarize(rows: list[dict], sequences: dict[str, dict], methods: list[str]) -> dict:
-    """``{"frames", "methods", "sequences"}`` from the per-frame rows (see ``run.evaluate``)."""
+    """``{"frames", "methods", "sequences"}`` from the per-frame rows (see ``loop.evaluate``)."""
     out_sequences = {}
     for seq, info in sequences.items():
         seq_rows = [r for r in rows if r["sequence"] == seq]

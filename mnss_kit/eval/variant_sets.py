@@ -46,7 +46,7 @@ def variant_set(name: str, config: str, work: Path, frames: int, base: Path | No
     its source has since gained sequences or frames."""
     from ..dataset.variants import write_variant_dataset
     from ..render.config import load_render_config
-    from ..render.writer import render_dataset
+    from ..render.run import render_dataset
 
     pattern, applied, _ = VARIANTS[name]
     root = work / config

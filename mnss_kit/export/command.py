@@ -7,8 +7,8 @@ from pathlib import Path
 
 from ..model.families import placement_modes
 from ..ops.runtimes import DEFAULT_RUNTIME, runtime_names
-from ..quantize.api import METHODS
-from ..split.api import DEFAULT_RESOLUTION_TEXT
+from ..quantize.run import METHODS
+from ..split.inputs import DEFAULT_RESOLUTION_TEXT
 
 HELP = "write a deployment bundle: manifest.json, npu.tflite, npu_qdq.onnx, GPU shaders + weights, golden frames"
 
@@ -51,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..fileio import check_output
-    from .pipeline import ExportRequest, export
+    from .run import ExportRequest, export
 
     from ..ops.scale import parse_scale
 

@@ -94,18 +94,18 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
     """
     import tempfile
 
-    from ..quantize import api as quantize_api
+    from ..quantize import run as quantize_run
     from ..quantize.onnx_writer import to_onnx
     from ..quantize.stage import QuantizeOptions, quantize_module
     from ..quantize.tflite_writer import to_tflite
 
     with tempfile.TemporaryDirectory(prefix="mnss-export-calibration-") as tmp:
-        root = Path(data) if data else quantize_api.render_calibration_data(Path(tmp), progress, with_reference=False,
+        root = Path(data) if data else quantize_run.render_calibration_data(Path(tmp), progress, with_reference=False,
                                                                             scale=model.scale, jitter=jitter)
-        sequences = quantize_api.open_data(root, model.scale, family=family_of(model))
-        samples_wanted = quantize_api.CALIBRATION_SAMPLES
+        sequences = quantize_run.open_data(root, model.scale, family=family_of(model))
+        samples_wanted = quantize_run.CALIBRATION_SAMPLES
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", samples_wanted, root)
-        samples = quantize_api.calibration_samples(model, sequences, samples_wanted, progress=progress)
+        samples = quantize_run.calibration_samples(model, sequences, samples_wanted, progress=progress)
     art = quantize_module(npu_module(model), samples, QuantizeOptions(method=method), name=name)
     graph = retarget(art.graph, npu_module(model), hr_size, npu_input_shapes(model, hr_size))
     calibrated_at = list(art.graph.tensors[art.graph.outputs[0]].shape[1:3][::-1])  # the HR size, as the bundle
@@ -114,7 +114,7 @@ def quantize_at(model, name: str, data: Path | None, hr_size: tuple[int, int], m
         "source": "checkpoint",
         "method": method,
         "calibration_samples": len(samples),
-        "calibration_data": str(data) if data else f"rendered mnss_kit/configs/data/{quantize_api.DEFAULT_DATA_CONFIG}.yaml",
+        "calibration_data": str(data) if data else f"rendered mnss_kit/configs/data/{quantize_run.DEFAULT_DATA_CONFIG}.yaml",
         "calibrated_at_size": calibrated_at,
         **report_summary(report),
     }

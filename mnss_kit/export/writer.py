@@ -1,6 +1,6 @@
 """Assemble a bundle: write its files into a staging directory, build the manifest, check, publish.
 
-:func:`write_bundle` is the export stage's entry function.  The bundle appears at ``out`` only
+:func:`write_bundle` is the last step of the export stage's entry function (:func:`.run.export`).  The bundle appears at ``out`` only
 after :func:`mnss_kit.export.check.check_bundle` passes on the staging copy, through
 :func:`mnss_kit.fileio.atomic_directory`, so a failure at any point leaves nothing partial.
 """

@@ -117,7 +117,7 @@ def _check_scale(seqs: list[Path], record: dict, model: str) -> None:
 
 def _train(experiment, run_dir: Path, model: str, progress: bool) -> Path:
     """The run's ``model.pt``: kept when the run finished, resumed from ``last.pt`` when it was cut."""
-    from ..train.loop import train
+    from ..train.run import train
     from ..train.state import FINAL, LAST
 
     if (run_dir / FINAL).is_file():
@@ -131,7 +131,7 @@ def _judge(model: str, tuned: Path, out: Path, splits: list[SequenceSplit], prog
     """Every method on the judged frames; means over the held-back frames only."""
     from ..eval.baselines import baseline_methods
     from ..eval.methods import model_method
-    from ..eval.run import evaluate
+    from ..eval.loop import evaluate
     from ..eval.summary import method_stats
     from ..model import checkpoint
 

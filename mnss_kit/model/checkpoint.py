@@ -52,7 +52,7 @@ def code_version() -> str:
 
 def trained_patterns(record: dict) -> list[str]:
     """The jitter patterns a checkpoint was trained on: its record's ``jitter_pattern`` holds one
-    name, or several joined by commas when the training sets used several (``train.loop``).  By
+    name, or several joined by commas when the training sets used several (``train.run``).  By
     today's names: a record written before a pattern was renamed (the shipped ones say ``mnss`` for
     ``grid``) reads as the new name, without a warning, since the file is not the user's to change."""
     return list(dict.fromkeys(pattern_name(p) for p in str(record.get("jitter_pattern") or "").split(",") if p))

@@ -15,7 +15,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import json
 
-    from .listing import checkpoint_rows, config_rows
+    from .run import checkpoint_rows, config_rows
 
     rows = checkpoint_rows()
     listing = {"checkpoints": rows, "families": family_rows()}

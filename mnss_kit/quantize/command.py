@@ -3,7 +3,7 @@
 Calibration records the stage's inputs on recurrent runs of the float model,
 spread over every calibration sequence.  The report compares the float
 pipeline (fp32) with the same pipeline whose NPU stage runs the written
-``npu.tflite`` (int8) through :func:`mnss_kit.eval.run.evaluate`, the code
+``npu.tflite`` (int8) through :func:`mnss_kit.eval.loop.evaluate`, the code
 behind ``mnss-kit eval``: same frames, same metrics, one run.
 """
 
@@ -13,7 +13,7 @@ import argparse
 from pathlib import Path
 
 from ..ops.runtimes import DEFAULT_RUNTIME, runtime_names
-from .api import CALIBRATION_SAMPLES, DEFAULT_DATA_CONFIG, METHODS, PIPELINE_FRAMES
+from .run import CALIBRATION_SAMPLES, DEFAULT_DATA_CONFIG, METHODS, PIPELINE_FRAMES
 
 HELP = "quantize the NPU stage to int8: npu.tflite, npu_qdq.onnx, encodings.json, report (calibrated on recurrent runs)"
 
@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path(f"{Path(args.model).stem}-int8")
     check_output(out, "directory")  # before the imports too: they take seconds
 
-    from .api import QuantizeRequest, quantize
+    from .run import QuantizeRequest, quantize
     from .artifacts import comparison_table, summary_table
 
     art, files = quantize(QuantizeRequest(

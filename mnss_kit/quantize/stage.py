@@ -1,7 +1,7 @@
 """Quantize one float NPU module: trace, calibrate, quantize, (A16, QAT), write and measure.
 
-``quantize_module`` is the stage's entry function; ``mnss-kit quantize`` wraps
-it with checkpoint loading and calibration data.  Written into ``out_dir``:
+``quantize_module`` is the core of the stage; its entry function (:func:`.run.quantize`,
+``mnss-kit quantize``) wraps it with checkpoint loading and calibration data.  Written into ``out_dir``:
 
     npu.tflite      int8 (NHWC, integer I/O), LiteRT flatbuffer
     npu_qdq.onnx    the same graph as QDQ ONNX (NCHW, integer I/O), same scales and zero points

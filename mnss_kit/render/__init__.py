@@ -4,6 +4,6 @@
     scenes/       built-in scenes (arena, town, flight, factory) and the glTF/OBJ import hook
     camera.py     matrices, jitter, keyframed camera paths (camera-path YAML format)
     renderer.py   shadow map, deferred G-buffer, lighting, particles; LR + 16-spp HR reference
-    writer.py     frames -> dataset sequences (sharding, resume, meta.json)
+    run.py        render_dataset: frames -> dataset sequences (sharding, resume, meta.json)
     command.py    ``mnss-kit render``
 """

@@ -26,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..fileio import check_output
     from .config import load_render_config
-    from .writer import parse_shard, render_dataset
+    from .run import parse_shard, render_dataset
 
     check_output(args.out, "into")
     shard = parse_shard(args.shard)

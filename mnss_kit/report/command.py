@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .page import DEFAULT_BUDGETS_MS  # a light import: the page module loads matplotlib only to draw
+from .run import DEFAULT_BUDGETS_MS  # a light import: the run module loads matplotlib only to draw
 
 HELP = "one HTML page from the bench, stress and size JSON: a verdict per scale, tables, charts (inline SVG) and crops"
 
@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--budget-ms must be positive, got {' '.join(f'{b:g}' for b in args.budget_ms)}")
     check_output(args.out, "directory")
 
-    from .page import build_report
+    from .run import build_report
 
     page = build_report(args.bench, args.stress, args.out, overwrite=args.overwrite, sizes=args.size,
                         budgets_ms=tuple(args.budget_ms))

@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..errors import UserError
     from ..fileio import atomic_write_text, check_output
-    from ..split.api import parse_resolution
+    from ..split.inputs import parse_resolution
     from .select import Budget, parse_target
 
     check_output(args.out, "into")
@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
         load_device(budget.device)  # an unknown profile fails before any training
 
     from .charts import markdown, write_chart
-    from .ladder import SizeRequest, run_size
+    from .run import SizeRequest, run_size
 
     request = SizeRequest(data=args.data, targets=targets, out=args.out, test=args.test, held_out=args.held_out,
                           ladder=args.ladder, overrides=args.overrides, steps=args.steps, minutes=args.minutes, budget=budget,

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from ..model.families import placement_modes
-from .api import DEFAULT_RESOLUTION_TEXT
+from .inputs import DEFAULT_RESOLUTION_TEXT
 
 HELP = "place each stage on GPU or NPU for a device profile and estimate ms per stage (estimates)"
 
@@ -33,16 +33,10 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         check_output(args.json, "file")
 
-    from .api import load_model, parse_resolution, require_scale_multiple
-    from .device import load_device
-    from .plan import split_model
     from .report import format_text
+    from .run import run_split
 
-    resolution = parse_resolution(args.resolution)
-    device = load_device(args.device)
-    model, name = load_model(args.model)
-    require_scale_multiple(resolution, model.scale)
-    plan = split_model(model, device, args.placement, resolution, model_name=name)
+    plan = run_split(args.model, args.device, args.placement, args.resolution)
     print(format_text(plan))
     if args.json:
         atomic_write_json(args.json, plan.to_dict())

@@ -28,7 +28,7 @@ from .device import DeviceProfile
 from .estimate import ESTIMATE_LABEL, StageCostEstimate, estimate_stage, handoff_ms
 
 PLACEMENTS = placement_modes()
-from .api import DEFAULT_RESOLUTION
+from .inputs import DEFAULT_RESOLUTION
 ESTIMATE_NOTE = (
     "Every *_ms figure is an estimate from the device profile (roofline per stage plus a "
     "GPU<->NPU handoff model), not a measurement."

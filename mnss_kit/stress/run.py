@@ -37,7 +37,7 @@ class StressRequest:
 def run_stress(request: StressRequest) -> dict:
     """Evaluate ``request.models`` and the baselines on every scenario; returns the stress document."""
     from ..dataset import format as fmt
-    from ..eval.run import evaluate
+    from ..eval.loop import evaluate
 
     data = request.data or _render(request.work / "data" / DATA_CONFIG, request.progress)
     methods, scale = _methods(request.models, data)
@@ -68,7 +68,7 @@ def run_stress(request: StressRequest) -> dict:
 def _run_fault(fault: Fault, methods: dict, source: Path, scale: int, request: StressRequest) -> list[dict] | str:
     """The per-frame rows of every method on ``source`` with ``fault`` applied, or the error when a
     method's output was not finite (the evaluation refuses NaN / Inf outputs)."""
-    from ..eval.run import evaluate
+    from ..eval.loop import evaluate
 
     wrapped = {m: fault_method(f, fault) for m, f in methods.items()}
     try:
@@ -103,7 +103,7 @@ def fault_entry(fault: Fault, clean: list[dict], rows: list[dict] | str, methods
 
 def _render(out: Path, progress: bool) -> Path:
     from ..render.config import load_render_config
-    from ..render.writer import render_dataset
+    from ..render.run import render_dataset
 
     render_dataset(load_render_config(DATA_CONFIG), out, progress=progress)  # skips frames already present
     return out

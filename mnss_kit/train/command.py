@@ -31,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     for where in (out, experiment.train.log_dir):
         if where:
             check_output(where, "into")
-    from .loop import train  # imports torch: after the checks
+    from .run import train  # imports torch: after the checks
 
     final = train(experiment, out, resume=args.resume, progress=not args.no_progress, init=args.init)
     if os.environ.get("RANK", "0") == "0":  # one line from a torchrun world too

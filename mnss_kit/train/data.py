@@ -179,7 +179,7 @@ def render(render_config: str, out_dir: Path, progress: bool) -> None:
     would send it; the clean render is kept beside it as ``OUT.source`` until the variant is written)."""
     try:
         from ..render.config import load_render_config
-        from ..render.writer import render_dataset
+        from ..render.run import render_dataset
     except ImportError as e:
         raise UserError(f"cannot render {out_dir}: the renderer is not available in this installation ({e})") from None
     name, *overrides = render_config.split()

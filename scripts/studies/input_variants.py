@@ -43,7 +43,7 @@ def variant_data(name: str, base: Path) -> Path:
 
 def evaluate_variant(model: str, data: Path) -> dict:
     from mnss_kit.bench.run import quality_table
-    from mnss_kit.eval.api import evaluate_model
+    from mnss_kit.eval.run import evaluate_model
 
     return quality_table(evaluate_model(model, data, methods=list(METHODS), max_frames=FRAMES, progress=False), METHODS)
 

@@ -150,7 +150,7 @@ def run(args) -> dict:
     from mnss_kit.metrics.image import to_image
     from mnss_kit.metrics.psnr import psnr
     from mnss_kit.model.checkpoint import load
-    from mnss_kit.quantize.api import calibration_samples, int8_model, open_data
+    from mnss_kit.quantize.run import calibration_samples, int8_model, open_data
     from mnss_kit.quantize.stage import QuantizeOptions, quantize_module
 
     torch.set_num_threads(args.threads)

@@ -7,7 +7,7 @@
 Calibration samples are recorded once (``mnss-kit quantize``'s recurrent
 recording, spread over the calibration sequences) and shared by every
 setting.  All settings are then evaluated in one run of
-``mnss_kit.eval.run.evaluate`` (the code behind ``mnss-kit eval``) next to the
+``mnss_kit.eval.loop.evaluate`` (the code behind ``mnss-kit eval``) next to the
 float model, so every frame is paired.  The quality numbers are deterministic
 (one run); the latencies are medians of interleaved runs.  Writes
 ``benchmarks/results/quantize_study.json`` and generates ``docs/studies/quantization.md``
@@ -83,7 +83,7 @@ def measure(args, argv: list[str]) -> dict:
     import torch
 
     from mnss_kit.model.checkpoint import load
-    from mnss_kit.quantize.api import calibration_samples, evaluate_int8, evaluation_info, fp32_vs_int8, open_data
+    from mnss_kit.quantize.run import calibration_samples, evaluate_int8, evaluation_info, fp32_vs_int8, open_data
     from mnss_kit.quantize.stage import QuantizeOptions, quantize_module
 
     torch.set_num_threads(args.threads)

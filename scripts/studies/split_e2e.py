@@ -6,7 +6,7 @@
 
 Exports the model (int8 NPU stage calibrated on ``--calib``) unless ``--bundle`` names an
 existing bundle, then runs two methods recurrently over the same frames of every held-out
-sequence through ``mnss_kit.eval.run.evaluate`` (so both are scored by the same metric code):
+sequence through ``mnss_kit.eval.loop.evaluate`` (so both are scored by the same metric code):
 
 ``pytorch_fp32``  the checkpoint's model in PyTorch float32, unsplit
 ``split``         the bundle in the emulator: GPU passes as the bundle's shader files on Mesa,
@@ -108,7 +108,7 @@ class PairedOutputs:
 def compare_sequence(model, emulator, seq_dir: Path, frames: int | None, progress: bool = False) -> dict:
     """Both methods over one sequence: per-method means, the PSNR difference and split-vs-PyTorch PSNR."""
     from mnss_kit.eval.methods import model_method
-    from mnss_kit.eval.run import evaluate
+    from mnss_kit.eval.loop import evaluate
 
     paired = PairedOutputs(model_method(model), split_method(emulator))
     start = time.perf_counter()
@@ -188,7 +188,7 @@ def write_doc(report: dict, path: Path = DOC) -> None:
         f"`npu.tflite` in LiteRT {report['litert_version']} with the `{report['npu_profile']}` kernel set "
         f"({report['npu_kernels']}); its output is the 8-bit display image.  **pytorch_fp32**: the checkpoint "
         "in PyTorch float32, not split.  Both run recurrently from frame 0 of each sequence over the same "
-        "frames, scored by `mnss_kit.metrics` through `mnss_kit.eval.run.evaluate` (IF-SSIM excludes the "
+        "frames, scored by `mnss_kit.metrics` through `mnss_kit.eval.loop.evaluate` (IF-SSIM excludes the "
         "first frame and cuts).",
         "",
         "| sequence | frames | cuts | PSNR fp32 | PSNR split | ΔPSNR (fp32 − split) | SSIM fp32 | SSIM split "

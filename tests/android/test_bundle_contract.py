@@ -15,7 +15,7 @@ import pytest
 
 from mnss_kit.emulate.compare import compare_dumps
 from mnss_kit.emulate.dump import read_dump
-from mnss_kit.emulate.sequence import run_dataset
+from mnss_kit.emulate.run import run_dataset
 from mnss_kit.export.check import check_files
 from mnss_kit.export.manifest import file_table, load_schema, schema_problems
 

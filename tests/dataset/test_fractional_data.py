@@ -34,7 +34,7 @@ sequences:
 @pytest.fixture(scope="module")
 def fractional_data(tmp_path_factory):
     from mnss_kit.render.config import load_render_config
-    from mnss_kit.render.writer import render_dataset
+    from mnss_kit.render.run import render_dataset
 
     root = tmp_path_factory.mktemp("fractional_data")
     (root / "cam.yaml").write_text(CAMERA)

@@ -14,7 +14,7 @@ from mnss_kit.dataset.nss_export import HALF_MAX, export_nss
 from mnss_kit.dataset.synthetic import write_synthetic_sequence
 from mnss_kit.errors import UserError
 from mnss_kit.render.config import load_render_config
-from mnss_kit.render.writer import render_dataset
+from mnss_kit.render.run import render_dataset
 
 CONFIG = """
 version: 1

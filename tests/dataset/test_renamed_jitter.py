@@ -77,7 +77,7 @@ def test_a_dataset_written_with_the_old_name_reads_as_grid(tmp_path, caplog, fre
 
 def test_a_render_on_top_of_one_from_before_the_rename_resumes(tmp_path):
     """The renderer compares the meta.json on disk with its own: the old name is the same config."""
-    from mnss_kit.render.writer import _prepare_meta
+    from mnss_kit.render.run import _prepare_meta
 
     seq = write_synthetic_sequence(tmp_path / "seq", frames=3, pattern="grid")
     meta = fmt.read_meta(seq)

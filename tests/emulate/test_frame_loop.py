@@ -18,7 +18,7 @@ from mnss_kit.emulate.bundle import BundleSpec
 from mnss_kit.emulate.frame_loop import Emulator
 from mnss_kit.model.mnss.config import aa_input_channels
 from mnss_kit.emulate.npu_graph import read_npu_graph
-from mnss_kit.emulate.sequence import run_dataset, sequence_frames
+from mnss_kit.emulate.run import run_dataset, sequence_frames
 from mnss_kit.errors import UserError
 from mnss_kit.model.mnss import gpu_plan
 from mnss_kit.model.mnss.gpu_stage import GpuStage

@@ -17,7 +17,7 @@ import pytest
 
 from mnss_kit.dataset.format import read_meta
 from mnss_kit.emulate.frame_loop import Emulator
-from mnss_kit.emulate.sequence import run_dataset, sequence_frames
+from mnss_kit.emulate.run import run_dataset, sequence_frames
 from mnss_kit.errors import UserError
 from mnss_kit.export.manifest import file_table
 from mnss_kit.ops.runtimes import runtime_names

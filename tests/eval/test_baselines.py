@@ -5,7 +5,7 @@ import torch.nn.functional as F
 
 from mnss_kit.eval.baselines import TAAU, Bicubic, baseline_methods
 from mnss_kit.model.taau import rgb_to_ycocg, ycocg_to_rgb
-from mnss_kit.eval.run import evaluate
+from mnss_kit.eval.loop import evaluate
 
 from .conftest import write_panning_sequence
 

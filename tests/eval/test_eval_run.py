@@ -9,7 +9,7 @@ from mnss_kit.dataset import format as fmt
 from mnss_kit.errors import UserError
 from mnss_kit.eval.baselines import baseline_methods
 from mnss_kit.eval.methods import model_method
-from mnss_kit.eval.run import evaluate
+from mnss_kit.eval.loop import evaluate
 from mnss_kit.eval.summary import recovery
 
 REQUIRED = ("psnr", "ssim", "if_ssim", "temporal_error")

@@ -32,7 +32,7 @@ def static_unjittered(tmp_path_factory):
 
 @pytest.mark.parametrize("name", X2_MODELS)
 def test_no_phase_offset_on_a_static_unjittered_camera(static_unjittered, name):
-    from mnss_kit.eval.api import evaluate_model
+    from mnss_kit.eval.run import evaluate_model
 
     result = evaluate_model(name, static_unjittered, methods=["model"], progress=False)
     rows = [r for r in result["per_frame"] if r["method"] == "model"][1:]

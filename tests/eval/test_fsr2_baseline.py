@@ -11,7 +11,7 @@ import torch
 
 from mnss_kit.cli import main
 from mnss_kit.eval.baselines import FSR2, baseline_methods
-from mnss_kit.eval.run import evaluate
+from mnss_kit.eval.loop import evaluate
 from mnss_kit.ops import fsr2
 
 from .conftest import write_panning_sequence

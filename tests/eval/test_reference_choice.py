@@ -12,7 +12,7 @@ from mnss_kit.dataset import format as fmt
 from mnss_kit.errors import UserError
 from mnss_kit.eval.baselines import baseline_methods
 from mnss_kit.eval.command import REFERENCES
-from mnss_kit.eval.run import evaluate
+from mnss_kit.eval.loop import evaluate
 
 
 @pytest.fixture

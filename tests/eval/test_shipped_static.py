@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from mnss_kit.eval.baselines import baseline_methods
 from mnss_kit.eval.methods import model_method, no_history_method
-from mnss_kit.eval.run import evaluate
+from mnss_kit.eval.loop import evaluate
 from mnss_kit.model import checkpoint
 
 

@@ -12,7 +12,7 @@ from bundle_replay import Replay, read_array
 
 from mnss_kit.dataset.synthetic import write_synthetic_sequence
 from mnss_kit.export.check import check_bundle
-from mnss_kit.export.pipeline import ExportRequest, export
+from mnss_kit.export.run import ExportRequest, export
 from mnss_kit.model import checkpoint
 from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model, randomise_convs

@@ -13,7 +13,7 @@ from mnss_kit.cli import main
 from mnss_kit.errors import UserError
 from mnss_kit.export.check import check_bundle
 from mnss_kit.export.npu_stage import retarget
-from mnss_kit.export.pipeline import ExportRequest, export
+from mnss_kit.export.run import ExportRequest, export
 from mnss_kit.model.checkpoint import load
 from mnss_kit.quantize.calibrate import calibrate
 from mnss_kit.quantize.params import quantize_graph
@@ -93,7 +93,7 @@ def test_golden_frames_are_rendered_when_no_data_has_the_bundle_size(tiny_ckpt, 
 def test_command_choices_mirror_their_sources():
     """The CLI lists choices without importing the heavy modules that define them."""
     from mnss_kit.export import command
-    from mnss_kit.quantize.api import METHODS
+    from mnss_kit.quantize.run import METHODS
 
     assert command.METHODS == METHODS
 
@@ -109,7 +109,7 @@ def test_manifest_schema_accepts_the_runtimes_golden_frames_can_use():
 def test_a_run_directory_named_like_a_shipped_model_does_not_hide_it(tmp_path, monkeypatch):
     """``mnss-kit export mnss_x2`` next to a training run ``./mnss_x2`` exports the shipped checkpoint,
     as eval and quantize do; a quantize output directory of that name is still taken as one."""
-    from mnss_kit.export.pipeline import _sources
+    from mnss_kit.export.run import _sources
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "mnss_x2").mkdir()

@@ -42,7 +42,7 @@ def npu_differences(bundle_dir, data_dir, profile: str, frames: int) -> tuple[in
     ``frames`` frames of the first sequence in ``data_dir``."""
     from mnss_kit.dataset.format import read_meta
     from mnss_kit.emulate.frame_loop import Emulator
-    from mnss_kit.emulate.sequence import sequence_frames
+    from mnss_kit.emulate.run import sequence_frames
 
     runtime_backend = "onnxruntime" if profile == "ort-cpu" else "litert"
     numpy_npu = Emulator(bundle_dir, npu_profile=profile, npu_backend="numpy")

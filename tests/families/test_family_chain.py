@@ -176,7 +176,7 @@ def _max_diff(a: np.ndarray, b: np.ndarray) -> int:
 def test_numpy_npu_is_bit_exact_to_its_runtime(bundle, chain, profile):
     """The emulator's numpy kernels against the runtime itself, on the bundle's real frames."""
     from mnss_kit.emulate.frame_loop import Emulator
-    from mnss_kit.emulate.sequence import sequence_frames
+    from mnss_kit.emulate.run import sequence_frames
     from mnss_kit.dataset.format import read_meta
 
     runtime_backend = "onnxruntime" if profile == "ort-cpu" else "litert"
@@ -203,9 +203,9 @@ def test_the_bundle_is_scored_as_an_eval_method(bundle, chain):
     """``bench.emulated.bundle_method``: the emulated int8 frames scored by the evaluation loop give
     the PSNR the emulator reports for the same frames."""
     from mnss_kit.emulate.frame_loop import Emulator
-    from mnss_kit.emulate.sequence import run_dataset
+    from mnss_kit.emulate.run import run_dataset
     from mnss_kit.bench.emulated import bundle_method
-    from mnss_kit.eval.run import evaluate
+    from mnss_kit.eval.loop import evaluate
 
     result = evaluate({"int8": bundle_method(bundle)}, chain["data"], max_frames=2, progress=False)
     report = run_dataset(Emulator(bundle), chain["data"], frames=2)

@@ -203,7 +203,7 @@ def test_the_bundle_computes_the_model(bundle):
     just TAAU."""
     from mnss_kit.dataset.format import read_meta
     from mnss_kit.emulate.frame_loop import Emulator
-    from mnss_kit.emulate.sequence import sequence_frames
+    from mnss_kit.emulate.run import sequence_frames
 
     emulator = Emulator(bundle["bundle"])
     seq = next(p for p in sorted(bundle["data"].iterdir()) if p.is_dir() and not p.name.startswith("."))

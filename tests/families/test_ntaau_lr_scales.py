@@ -283,7 +283,7 @@ def test_one_scale_input_checkpoint_exports_at_several_scales(scale_input_bundle
     from mnss_kit.cli import main
     from mnss_kit.dataset.format import read_meta
     from mnss_kit.emulate.frame_loop import Emulator
-    from mnss_kit.emulate.sequence import sequence_frames
+    from mnss_kit.emulate.run import sequence_frames
     from mnss_kit.export.golden import TOLERANCES
     from mnss_kit.export.reader import open_bundle
     from mnss_kit.model import checkpoint

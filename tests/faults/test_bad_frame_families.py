@@ -23,7 +23,7 @@ from mnss_kit.stress.scenarios import FAULTS, Fault, corrupt
 
 RENDERED = """
 version: 1
-defaults: {lr_size: [64, 36], scale: 2, jitter: mnss, hr_samples: 4, fps: 30, frames: 24}
+defaults: {lr_size: [64, 36], scale: 2, jitter: grid, hr_samples: 4, fps: 30, frames: 24}
 sequences:
   - {name: fast_objects, scene: arena, seed: 105}
 """
@@ -50,7 +50,7 @@ GBUFFER_FAULTS = {f.name: f for f in _gbuffer_faults()}
 def rendered(tmp_path_factory):
     """``fast_objects`` rendered small (64x36 -> 128x72, 24 frames, a cut after frame 14); skipped without EGL."""
     from mnss_kit.render.config import load_render_config
-    from mnss_kit.render.writer import render_dataset
+    from mnss_kit.render.run import render_dataset
 
     root = tmp_path_factory.mktemp("bad_frame_render")
     (root / "data.yaml").write_text(RENDERED)

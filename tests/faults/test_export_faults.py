@@ -74,7 +74,7 @@ def test_rendering_in_place_of_given_data_is_said_on_stderr(made, tmp_path, caps
 def test_calibration_frames_rendered_for_an_x4_model_are_x4(tmp_path, capsys, monkeypatch):
     """fusesr_x4_l without --data: the frames export renders to calibrate are at x4 (they were x2,
     and the export then failed on its own frames)."""
-    from mnss_kit.quantize import api
+    from mnss_kit.quantize import run as quantize_run
 
     asked = {}
 
@@ -82,7 +82,7 @@ def test_calibration_frames_rendered_for_an_x4_model_are_x4(tmp_path, capsys, mo
         asked.update(scale=scale, jitter=jitter)
         raise UserError("stop before rendering")  # the render itself needs EGL and a minute
 
-    monkeypatch.setattr(api, "render_calibration_data", render)
+    monkeypatch.setattr(quantize_run, "render_calibration_data", render)
     code, lines, _ = run_cli(_export("fusesr_x4_l", tmp_path, "--resolution", "640x360"), capsys)
     assert code == 2 and lines == ["mnss-kit export: error: stop before rendering"], lines
     record = checkpoint.load("fusesr_x4_l")[1]

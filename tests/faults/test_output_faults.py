@@ -43,17 +43,17 @@ OUTPUT_CASES = {
 # functions that start each command's real work: none may run before the output check
 WORK = [
     ("mnss_kit.model.checkpoint", "load"),
-    ("mnss_kit.render.writer", "render_dataset"),
+    ("mnss_kit.render.run", "render_dataset"),
     ("mnss_kit.dataset.cache", "prepare_caches"),
-    ("mnss_kit.train.loop", "train"),
-    ("mnss_kit.eval.run", "evaluate"),
+    ("mnss_kit.train.run", "train"),
+    ("mnss_kit.eval.loop", "evaluate"),
     ("mnss_kit.split.plan", "split_model"),
-    ("mnss_kit.export.pipeline", "export"),
+    ("mnss_kit.export.run", "export"),
     ("mnss_kit.emulate.frame_loop", "Emulator"),
     ("mnss_kit.emulate.compare", "compare_paths"),
     ("mnss_kit.demo.Steps", "run"),
 ]
-IMPORTS_WORK = ("mnss_kit.dataset.loader", "mnss_kit.emulate.sequence")  # bind names of WORK at import time
+IMPORTS_WORK = ("mnss_kit.dataset.loader", "mnss_kit.emulate.run")  # bind names of WORK at import time
 
 
 @pytest.fixture(scope="module")
@@ -265,9 +265,9 @@ def test_a_killed_cache_build_leaves_nothing_after_the_next_build(data, tmp_path
 
 
 def test_crops_of_a_failed_eval_are_not_left(data, tmp_path, monkeypatch):
-    from mnss_kit.eval import run as eval_run
+    from mnss_kit.eval import loop as eval_loop
 
-    real = eval_run._run_sequence
+    real = eval_loop._run_sequence
     calls = []
 
     def fail_on_second(*args, **kwargs):
@@ -276,7 +276,7 @@ def test_crops_of_a_failed_eval_are_not_left(data, tmp_path, monkeypatch):
             raise KeyboardInterrupt
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(eval_run, "_run_sequence", fail_on_second)
+    monkeypatch.setattr(eval_loop, "_run_sequence", fail_on_second)
     assert main(["eval", "none", "--data", str(data), "--crops", str(tmp_path / "crops"), "--no-progress"]) == 130
     assert not (tmp_path / "crops").exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".crops")]

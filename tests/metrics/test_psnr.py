@@ -8,7 +8,7 @@ import pytest
 
 from mnss_kit.emulate.compare import TensorStats, accumulate
 from mnss_kit.emulate.dump import entry_for
-from mnss_kit.emulate.sequence import summarize
+from mnss_kit.emulate.run import summarize
 from mnss_kit.eval.summary import method_stats
 from mnss_kit.fileio import json_safe, json_text
 from mnss_kit.metrics.psnr import mse_psnr, psnr

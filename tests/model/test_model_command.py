@@ -31,7 +31,7 @@ def test_lists_a_shipped_checkpoint(tmp_path, monkeypatch, capsys):
 
 
 def test_the_default_model_is_shipped_and_marked_as_such():
-    from mnss_kit.model.listing import checkpoint_rows
+    from mnss_kit.model.run import checkpoint_rows
     from mnss_kit.zoo import DEFAULT_MODEL
 
     assert [row["name"] for row in checkpoint_rows() if row["default"]] == [DEFAULT_MODEL]

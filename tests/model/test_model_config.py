@@ -88,7 +88,7 @@ def test_shipped_ntaau_checkpoints_were_trained_by_their_configs(name):
     from mnss_kit.model import checkpoint
     from mnss_kit.model.config import describes
     from mnss_kit.train.config import changed_train_keys, load_experiment
-    from mnss_kit.train.loop import BOOKKEEPING_KEYS
+    from mnss_kit.train.run import BOOKKEEPING_KEYS
     experiment, _ = load_experiment(name)
     record, _ = checkpoint.read_record(name)
     differing = changed_train_keys(record["train"], experiment.train, BOOKKEEPING_KEYS | {"init"})

@@ -9,7 +9,7 @@ from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.errors import UserError
 from mnss_kit.ops.int8.quantize import choose_qparams, dequantize, quantize
 from mnss_kit.quantize.calibrate import InputRecorder, calibrate, mse_range
-from mnss_kit.quantize.api import calibration_samples
+from mnss_kit.quantize.run import calibration_samples
 
 
 @pytest.mark.parametrize("method", ["minmax", "percentile", "entropy", "mse"])

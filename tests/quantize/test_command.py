@@ -14,7 +14,7 @@ from mnss_kit.fileio import sha256_file
 from mnss_kit.model import checkpoint
 from mnss_kit.model.mnss.config import MNSSConfig
 from mnss_kit.model.families import build_model, randomise_convs
-from mnss_kit.quantize.api import sample_frames
+from mnss_kit.quantize.run import sample_frames
 
 TINY = dict(scale=2, recon_width=8, recon_layers=3, aa_width=4, aa_layers=1)
 
@@ -182,7 +182,7 @@ def test_shipped_model_files_agree_within_one_lsb_under_xnnpack(synthetic_datase
     """The shipped checkpoint's npu.tflite, run by LiteRT's default CPU kernels (XNNPACK), and its
     npu_qdq.onnx in ONNX Runtime: every int8 tensor of the whole graph within 1 LSB.  (LiteRT's
     reference kernels round twice near ties; their whole-graph number is reported, not held to 1.)"""
-    from mnss_kit.quantize.api import calibration_samples, open_data
+    from mnss_kit.quantize.run import calibration_samples, open_data
     from mnss_kit.quantize.stage import QuantizeOptions, quantize_module
 
     model, _ = checkpoint.load("mnss_x2")

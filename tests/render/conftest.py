@@ -35,7 +35,7 @@ def tiny_config(tmp_path_factory) -> Path:
 def tiny_render(tiny_config, tmp_path_factory) -> Path:
     """The tiny config rendered once; read-only for the tests."""
     from mnss_kit.render.config import load_render_config
-    from mnss_kit.render.writer import render_dataset
+    from mnss_kit.render.run import render_dataset
 
     out = tmp_path_factory.mktemp("render_out")
     render_dataset(load_render_config(str(tiny_config)), out, progress=False)

@@ -69,7 +69,7 @@ def test_yaml_errors(tmp_path):
 def test_each_cut_resets_exactly_one_frame():
     from mnss_kit.render.config import SequenceConfig
     from mnss_kit.render.scene import Scene
-    from mnss_kit.render.writer import sequence_meta
+    from mnss_kit.render.run import sequence_meta
 
     seq = SequenceConfig(name="s", scene="arena", frames=64, fps=30.0)
     for cut in (1.6, 48 / 30, 1.6 + 1e-12, 1.61):  # on a frame time (with rounding either way) and between frames

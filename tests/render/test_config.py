@@ -9,7 +9,7 @@ import pytest
 from mnss_kit.cli import main
 from mnss_kit.errors import UserError
 from mnss_kit.render.config import load_render_config
-from mnss_kit.render.writer import parse_shard
+from mnss_kit.render.run import parse_shard
 
 
 def write(tmp_path, text: str):
@@ -91,7 +91,7 @@ def test_cli_reports_bad_config_in_one_line(tmp_path, capsys):
 
 
 def test_rerender_with_another_config_into_same_directory_is_refused(tmp_path):
-    from mnss_kit.render.writer import render_dataset
+    from mnss_kit.render.run import render_dataset
 
     base = "sequences:\n  - {name: a, scene: arena, frames: 1, lr_size: [16, 9], hr_samples: 1}\n"
     render_dataset(load_render_config(write(tmp_path, base)), tmp_path / "out", progress=False)
@@ -103,7 +103,7 @@ def test_rerender_with_another_config_into_same_directory_is_refused(tmp_path):
 
 def test_meta_records_the_environment_and_a_resume_elsewhere_names_what_changed(tmp_path, monkeypatch):
     from mnss_kit.render import gpu
-    from mnss_kit.render.writer import render_dataset
+    from mnss_kit.render.run import render_dataset
 
     config = load_render_config(write(tmp_path, "sequences:\n  - {name: a, scene: arena, frames: 1, lr_size: [16, 9], hr_samples: 1}\n"))
     render_dataset(config, tmp_path / "out", progress=False)
@@ -133,7 +133,7 @@ def test_shipped_configs_load():
 
 
 def test_output_path_that_is_a_file_is_a_user_error(tmp_path):
-    from mnss_kit.render.writer import render_dataset
+    from mnss_kit.render.run import render_dataset
 
     (tmp_path / "taken").write_text("x")
     cfg = load_render_config(write(tmp_path, "sequences:\n  - {name: a, scene: arena, frames: 1}\n"))

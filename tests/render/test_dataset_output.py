@@ -10,7 +10,7 @@ import numpy as np
 from mnss_kit.dataset import format as fmt
 from mnss_kit.ops import brdf
 from mnss_kit.render.config import load_render_config
-from mnss_kit.render.writer import render_dataset
+from mnss_kit.render.run import render_dataset
 
 
 def files(root: Path) -> dict[str, bytes]:

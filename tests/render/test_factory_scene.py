@@ -9,7 +9,7 @@ from mnss_kit.dataset import format as fmt
 from mnss_kit.dataset.check import check_dataset
 from mnss_kit.render.config import SequenceConfig, load_render_config
 from mnss_kit.render.scenes import build_scene
-from mnss_kit.render.writer import render_dataset
+from mnss_kit.render.run import render_dataset
 
 CONFIG = """
 version: 1

@@ -16,7 +16,7 @@ from mnss_kit.ops import scale as scales
 from mnss_kit.ops.jitter import jitter_sequence, period
 from mnss_kit.ops.resample import bilinear_sample, pixel_grid
 from mnss_kit.render.config import load_render_config
-from mnss_kit.render.writer import render_dataset
+from mnss_kit.render.run import render_dataset
 
 CAMERA = """
 keyframes:
@@ -191,7 +191,7 @@ def test_integer_scale_meta_is_as_before(tmp_path):
     record, scale an integer), whichever way the size and scale are written; the cameras' aspect is the
     LR one to the last bit, so the frames are the same too."""
     from mnss_kit.render.scenes import build_scene
-    from mnss_kit.render.writer import frame_aspect, sequence_meta
+    from mnss_kit.render.run import frame_aspect, sequence_meta
 
     base = "version: 1\nsequences:\n  - {name: a, scene: arena, frames: 3, jitter: grid, %s}\n"
     metas = []

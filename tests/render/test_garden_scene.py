@@ -21,7 +21,7 @@ from mnss_kit.render.mesh import Material
 from mnss_kit.render.renderer import FrameSpec, Renderer
 from mnss_kit.render.scene import Instance, Scene
 from mnss_kit.render.scenes import figures
-from mnss_kit.render.writer import render_dataset
+from mnss_kit.render.run import render_dataset
 
 LR = (64, 36)
 CAMERA_Z, WALL_Z, FOV = 2.0, -5.0, 60.0

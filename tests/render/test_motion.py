@@ -87,7 +87,7 @@ def test_points_behind_the_previous_camera_point_off_screen_and_the_jump_is_a_re
     from mnss_kit.render.config import load_render_config
     from mnss_kit.render.renderer import FrameSpec, Renderer
     from mnss_kit.render.scenes import build_scene
-    from mnss_kit.render.writer import previous_time, sequence_meta
+    from mnss_kit.render.run import previous_time, sequence_meta
 
     cfg = load_render_config("tiny", ["town_tiny.lr_size=[64,36]", "town_tiny.hr_samples=1"])
     seq = next(s for s in cfg.sequences if s.name == "town_tiny")

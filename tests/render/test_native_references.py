@@ -12,7 +12,7 @@ from mnss_kit.dataset import format as fmt
 from mnss_kit.dataset.check import check_dataset
 from mnss_kit.metrics.psnr import psnr
 from mnss_kit.render.config import load_render_config
-from mnss_kit.render.writer import render_dataset
+from mnss_kit.render.run import render_dataset
 
 
 def files(root: Path) -> dict[str, bytes]:

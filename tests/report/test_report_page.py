@@ -14,7 +14,7 @@ import pytest
 from mnss_kit.cli import main
 from mnss_kit.eval.crops import write_crops
 from mnss_kit.fileio import atomic_write_json
-from mnss_kit.report.page import build_report
+from mnss_kit.report.run import build_report
 from mnss_kit.stress.scenarios import NOT_COVERED
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")

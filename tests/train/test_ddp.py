@@ -12,7 +12,7 @@ import torch
 
 from mnss_kit.model import checkpoint
 from mnss_kit.train.config import load_experiment
-from mnss_kit.train.loop import train
+from mnss_kit.train.run import train
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 

@@ -13,7 +13,7 @@ import yaml
 
 from mnss_kit.model.families import FAMILIES
 from mnss_kit.train.config import load_experiment
-from mnss_kit.train.loop import train
+from mnss_kit.train.run import train
 from test_mixed_scales import CAMERA, SCALED_FAMILY
 
 REPO = Path(__file__).resolve().parents[2]

@@ -19,7 +19,7 @@ from mnss_kit.model.families import FAMILIES
 from mnss_kit.model.family import Family
 from mnss_kit.train.config import load_experiment
 from mnss_kit.train.data import StepSampler, step_loader
-from mnss_kit.train.loop import train
+from mnss_kit.train.run import train
 from mnss_kit.train.recurrent import batch_scale, crop_validity
 
 CAMERA = """
@@ -44,7 +44,7 @@ MIXED = ("a15", "b15", "c17", "d2")  # e17: 80x45 -> 47x26 at 1.7 (80/47, 45/26)
 @pytest.fixture(scope="module")
 def mixed_data(tmp_path_factory):
     from mnss_kit.render.config import load_render_config
-    from mnss_kit.render.writer import render_dataset
+    from mnss_kit.render.run import render_dataset
 
     root = tmp_path_factory.mktemp("mixed_scales")
     (root / "cam.yaml").write_text(CAMERA)

@@ -10,7 +10,7 @@ from mnss_kit.model.families import build_model
 from mnss_kit.train.config import TrainConfig
 from mnss_kit.train.distributed import World
 from mnss_kit.model.mnss.loss import MNSSLoss
-from mnss_kit.train.loop import _step
+from mnss_kit.train.run import _step
 from mnss_kit.train.recurrent import WindowChunk, crop_validity, validate
 
 from train_helpers import TINY_MODEL

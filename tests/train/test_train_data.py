@@ -58,7 +58,7 @@ def test_missing_data_is_rendered_then_renamed(tmp_path, monkeypatch):
         (out_dir / "seq").mkdir(parents=True)
         return type("Summary", (), {"rendered": 1, "seconds": 0.0})()
 
-    monkeypatch.setattr("mnss_kit.render.writer.render_dataset", fake_render_dataset)
+    monkeypatch.setattr("mnss_kit.render.run.render_dataset", fake_render_dataset)
     monkeypatch.setattr("mnss_kit.render.config.load_render_config", lambda name, overrides=None: name)
     target = tmp_path / "train_x2"
     ensure_data(TrainConfig(train_data=str(target)), DataSection(train="tiny"))
@@ -75,7 +75,7 @@ def test_several_training_directories_each_render_their_config(tmp_path, monkeyp
         (out_dir / "seq").mkdir(parents=True)
         return type("Summary", (), {"rendered": 1, "seconds": 0.0})()
 
-    monkeypatch.setattr("mnss_kit.render.writer.render_dataset", fake_render_dataset)
+    monkeypatch.setattr("mnss_kit.render.run.render_dataset", fake_render_dataset)
     monkeypatch.setattr("mnss_kit.render.config.load_render_config", lambda name, overrides=None: (name, overrides))
     dirs = [str(tmp_path / "plain"), str(tmp_path / "centre")]
     (tmp_path / "plain").mkdir()  # present: not rendered

@@ -10,7 +10,7 @@ from mnss_kit.config import resolve_config_path
 from mnss_kit.model import checkpoint
 from mnss_kit.model.families import build_model
 from mnss_kit.train.config import load_experiment
-from mnss_kit.train.loop import train
+from mnss_kit.train.run import train
 
 SHIPPED = "mnss_x2"
 

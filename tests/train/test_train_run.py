@@ -19,7 +19,7 @@ from mnss_kit.model.families import build_model
 from mnss_kit.train.config import load_experiment
 from mnss_kit.train.data import open_windows
 from mnss_kit.model.mnss.loss import MNSSLoss
-from mnss_kit.train.loop import train
+from mnss_kit.train.run import train
 from mnss_kit.train.recurrent import WindowChunk
 from mnss_kit.train.state import LAST
 

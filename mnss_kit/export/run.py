@@ -186,7 +186,7 @@ def bundle_lr_size(hr_size, scale) -> tuple[int, int]:
 def _bundle_size(request: ExportRequest, npu: NpuArtifacts | None, scale: int, output_at_lr: bool = False) -> tuple[int, int]:
     """The HR size: the quantize directory's (its NPU output is the HR image, or with ``output_at_lr``
     the LR one), else ``--resolution`` or the default."""
-    from ..split.api import DEFAULT_RESOLUTION, parse_resolution, require_scale_multiple
+    from ..split.inputs import DEFAULT_RESOLUTION, parse_resolution, require_scale_multiple
     from .npu_files import read_tflite
 
     if npu is not None:
@@ -330,7 +330,7 @@ def golden_input_frames(request: ExportRequest, lr_size, scale: int, pattern: st
                     request.data, *lr_size, GOLDEN_SCENE)
     with tempfile.TemporaryDirectory(prefix="mnss-export-golden-") as tmp:
         from ..render.config import RenderConfig, SequenceConfig
-        from ..render.writer import render_dataset
+        from ..render.run import render_dataset
 
         seq_cfg = SequenceConfig(name="golden", scene=GOLDEN_SCENE, seed=1, frames=n, lr_size=tuple(lr_size), scale=scale,
                                  jitter=pattern, hr_samples=1)

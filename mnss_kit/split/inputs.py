@@ -1,4 +1,5 @@
-"""The split stage's shared functions: output sizes and loading a model to place (light at import)."""
+"""What the split stage takes, shared with export and size: the output size (its text, default and
+limits) and the model to place (light at import)."""
 
 from __future__ import annotations
 
@@ -55,3 +56,4 @@ def load_model(name_or_path: str):
         f"no model '{name_or_path}': give a checkpoint path, a shipped name ({shipped}) "
         f"or a model config ({', '.join(config_names())})"
     )
+

@@ -1,4 +1,5 @@
-"""What ``mnss-kit models`` lists: the shipped checkpoints and the model config ladder, with their cost."""
+"""The model stage's entry (``mnss-kit models``): what it lists, the shipped checkpoints and the model
+config ladder, with their cost."""
 
 from __future__ import annotations
 

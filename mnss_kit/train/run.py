@@ -1,4 +1,4 @@
-"""The training loop: ``train(experiment, out_dir)`` -> ``out_dir/model.pt``.
+"""The train stage's entry, the training loop: ``train(experiment, out_dir)`` -> ``out_dir/model.pt``.
 
 One optimizer step per batch of recurrent windows.  Each window runs frame by
 frame from an empty history; with ``bptt = K`` the history is detached every

@@ -1,4 +1,5 @@
-"""Dataset sequences through the emulator: display frames, per-frame metrics and optional tensor dumps.
+"""The emulate stage's entry, :func:`run_dataset` (``mnss-kit emulate``): dataset sequences through
+the emulator: display frames, per-frame metrics and optional tensor dumps.
 
 Output directory (one sub-directory per sequence)::
 

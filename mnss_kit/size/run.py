@@ -1,4 +1,5 @@
-"""Train (or reuse) every rung of a model-size ladder on a user's scene and evaluate it on held-out sequences.
+"""The size stage's entry, :func:`run_size` (``mnss-kit size``): train (or reuse) every rung of a
+model-size ladder on a user's scene and evaluate it on held-out sequences.
 
 Each rung is a model config (``mnss_kit/configs/models/``) trained for the same number of steps on
 the same training sequences into ``OUT/runs/<config>/``.  A rung whose ``model.pt`` was trained
@@ -102,7 +103,7 @@ def split_sequences(data: list[Path], test: list[Path] | None, held_out: int) ->
 
 def ladder_configs(names: list[str] | None, scale: int) -> list[str]:
     """The rungs' config names, by increasing MACs per pixel; all at ``scale``."""
-    from ..model.listing import config_rows
+    from ..model.run import config_rows
 
     rows = {r["name"]: r for r in config_rows()}
     names = names or [n for n, r in rows.items() if r["scale"] == scale]
@@ -133,7 +134,7 @@ def rung_experiment(name: str, train_seqs: list[Path], request: SizeRequest):
 def train_rung(name: str, train_seqs: list[Path], request: SizeRequest) -> Path:
     """``OUT/runs/<name>/model.pt``: trained now, resumed, or reused when trained with these settings."""
     from ..model.checkpoint import read_record
-    from ..train.loop import FINAL, LAST, train
+    from ..train.run import FINAL, LAST, train
 
     experiment = rung_experiment(name, train_seqs, request)
     run_dir = request.out / "runs" / name
@@ -161,7 +162,7 @@ def _trained_as(record: dict, experiment) -> bool:
     run that stopped at its time cap counts as finished)."""
     from ..config import to_dict
     from ..model.config import describes
-    from ..train.loop import BOOKKEEPING_KEYS
+    from ..train.run import BOOKKEEPING_KEYS
 
     saved, wanted = record.get("train") or {}, to_dict(experiment.train)
     same = all(saved.get(k) == v for k, v in wanted.items() if k not in BOOKKEEPING_KEYS)
@@ -172,7 +173,7 @@ def evaluate_rung(name: str, checkpoint: Path, digest: str, test_seqs: list[Path
     """One ladder row: quality on the held-out sequences, cost, and training facts."""
     from ..bench.run import model_cost, quality
     from ..eval.methods import model_method
-    from ..eval.run import evaluate
+    from ..eval.loop import evaluate
     from ..model.checkpoint import load
     from ..model.families import family_of
 
@@ -191,7 +192,7 @@ def evaluate_rung(name: str, checkpoint: Path, digest: str, test_seqs: list[Path
 def _baselines(test_seqs: list[Path], scale: int, request: SizeRequest) -> dict:
     from ..bench.run import quality
     from ..eval.baselines import baseline_methods
-    from ..eval.run import evaluate
+    from ..eval.loop import evaluate
 
     methods = {k: v for k, v in baseline_methods(scale).items() if k in BASELINES}
     result = evaluate(methods, test_seqs, scale=scale, max_frames=request.max_frames, progress=request.progress)

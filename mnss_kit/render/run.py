@@ -1,4 +1,5 @@
-"""Render a data config into the dataset format, frame by frame, shardable and resumable.
+"""The render stage's entry, :func:`render_dataset` (``mnss-kit render``): a data config into the
+dataset format, frame by frame, shardable and resumable.
 
 Every frame is a pure function of its time, so the frames of all sequences
 (in config order) are dealt round-robin to ``N`` shards: shard ``I`` renders

@@ -118,7 +118,7 @@ def render_calibration_data(root: Path, progress: bool, with_reference: bool = T
     the fp32-vs-int8 comparison needs) is what makes the full render slow.
     """
     from ..render.config import load_render_config
-    from ..render.writer import render_dataset
+    from ..render.run import render_dataset
 
     overrides = [*(overrides or []), *([] if with_reference else ["hr_samples=1"]), f"scale={scale}",
                  *([f"jitter={jitter}"] if jitter else [])]
@@ -222,14 +222,14 @@ def int8_model(model, art, runtime: str = DEFAULT_RUNTIME):
 
 
 def evaluate_int8(model, variants: dict, data_dir: Path, max_frames: int | None, progress: bool = True) -> dict:
-    """``mnss_kit.eval.run.evaluate`` of ``fp32`` (the float model) and of one method per int8 variant.
+    """``mnss_kit.eval.loop.evaluate`` of ``fp32`` (the float model) and of one method per int8 variant.
 
     ``variants``: ``{name: (QuantizedArtifacts, LiteRT runtime name)}``.  Every
     method sees the same frames in one run, so the per-frame numbers are
     paired.  ``max_frames``: frames per sequence (None: all).
     """
     from ..eval.methods import model_method
-    from ..eval.run import evaluate
+    from ..eval.loop import evaluate
 
     methods = {"fp32": model_method(model)}
     for name, (art, runtime) in variants.items():
@@ -269,7 +269,7 @@ def evaluation_info(result: dict, runtime: str, held_out: bool, data_label: str)
         "sequences": len(result["sequences"]),
         "frames": result["frames"],
         "max_frames_per_sequence": result["settings"]["max_frames"],
-        "evaluator": "mnss_kit.eval.run.evaluate (as mnss-kit eval): recurrent, history from each method's own output",
+        "evaluator": "mnss_kit.eval.loop.evaluate (as mnss-kit eval): recurrent, history from each method's own output",
         "gpu_part": "PyTorch float32 (the model's GPU stages, identical in both methods)",
         "int8_runtime": runtime,
         "delta": "int8 - fp32",

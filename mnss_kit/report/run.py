@@ -1,4 +1,5 @@
-"""The report page: ``index.html``, its charts and the crops it shows, in one output directory.
+"""The report stage's entry, :func:`build_report` (``mnss-kit report``): the report page,
+``index.html``, its charts and the crops it shows, in one output directory.
 
 Sections: per scale, a verdict (the smallest model that beats TAAU, the best within each device
 budget), the bench records and charts (device milliseconds labelled as estimates, once, with why
