@@ -50,7 +50,7 @@ def variant_set(name: str, config: str, work: Path, frames: int, base: Path | No
 
     pattern, applied, _ = VARIANTS[name]
     root = work / config
-    source = base if pattern == "grid" and base is not None else root / f"render_{pattern}"
+    source = base if pattern == "grid" and base is not None else _render_dir(root, pattern)
     if source != base:
         render_dataset(load_render_config(config, [f"jitter={pattern}", f"frames={frames}"]), source, progress=progress)
     if not applied:
@@ -59,6 +59,16 @@ def variant_set(name: str, config: str, work: Path, frames: int, base: Path | No
     if not out.is_dir() or _contents(out) != _contents(source):  # a source that gained sequences or frames
         write_variant_dataset(source, out, applied, overwrite=True)
     return out
+
+
+def _render_dir(root: Path, pattern: str) -> Path:
+    """``root/render_<pattern>``; a work directory rendered before the pattern was renamed
+    (``render_mnss`` for grid) is used as it is, since its frames are the same."""
+    from ..ops.jitter import RENAMED_PATTERNS
+
+    path = root / f"render_{pattern}"
+    earlier = [root / f"render_{old}" for old, new in RENAMED_PATTERNS.items() if new == pattern]
+    return next((d for d in earlier if d.is_dir() and not path.exists()), path)
 
 
 def _contents(data: Path) -> list[tuple[str, int]]:

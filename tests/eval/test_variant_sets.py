@@ -28,3 +28,14 @@ def test_results_keyed_by_the_old_variant_name_read_as_today_s():
     assert "grid" in VARIANTS and "mnss" not in VARIANTS and VARIANTS["ldr8"][0] == "grid"
     assert list(current_variant_names({"mnss": 1, "halton": 2})) == ["grid", "halton"]
     assert current_variant_names({"mnss": 1, "grid": 3}) == {"grid": 3}  # today's name wins
+
+
+def test_a_work_directory_rendered_before_the_grid_rename_is_reused(tmp_path):
+    from mnss_kit.eval.variant_sets import _render_dir
+
+    assert _render_dir(tmp_path, "grid") == tmp_path / "render_grid"
+    (tmp_path / "render_mnss").mkdir()
+    assert _render_dir(tmp_path, "grid") == tmp_path / "render_mnss"
+    assert _render_dir(tmp_path, "halton") == tmp_path / "render_halton"
+    (tmp_path / "render_grid").mkdir()
+    assert _render_dir(tmp_path, "grid") == tmp_path / "render_grid"
