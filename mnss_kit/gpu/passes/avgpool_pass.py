@@ -32,6 +32,8 @@ def outputs(c: Call) -> dict:
     return {"aa_input": (*c.read["color"].shape[:2], avgpool_channels(bool(c.u("u_history_at_samples"))))}
 
 
+ORDER = 130  # MNSS, after inpaint_blend_pass: pools the rectified history
+
 PASS = Pass(
     "avgpool_pass", (8, 8, 1), "lr",
     (sampler("rectified", 0, "rgba16f"), sampler("color", 1, "rgba16f"), image("aa_input", 0, "rgba16f", array=True)),

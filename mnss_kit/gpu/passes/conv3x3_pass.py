@@ -49,6 +49,8 @@ def layer_uniforms(in_channels: int, out_channels: int, epilogue: str) -> dict:
     return {"u_in_layers": layers_of(in_channels), "u_out_layers": layers_of(out_channels), "u_epilogue": EPILOGUE_CODES[epilogue]}
 
 
+ORDER = 140  # MNSS AA net (once per layer), after avgpool_pass; also FuseSR's encoder, after demodulate_pass
+
 PASS = Pass(
     "conv3x3_pass", (8, 8, 1), "lr_layers",
     (sampler("x", 0, "rgba16f", array=True), sampler("residual", 1, "rgba16f"), buffer("weights", 0, "vec4[]"),

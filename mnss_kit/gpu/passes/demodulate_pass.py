@@ -22,6 +22,8 @@ def outputs(c: Call) -> dict:
     return {"l": (*c.read["color"].shape[:2], 3)}
 
 
+ORDER = 200  # FuseSR, after warp_pass; its encoder (conv3x3_pass, listed at 140) runs next
+
 PASS = Pass(
     "demodulate_pass", (8, 8, 1), "lr",
     (sampler("color", 0, "rgba16f"), sampler("fbeta", 1, "rgba16f"), sampler("emissive", 2, "rgba16f"),

@@ -30,6 +30,8 @@ def outputs(c: Call) -> dict:
     return {"next_history": (hh, hw, 4), "next_locks": (hh, hw, 2), "previous_depth": np.asarray(c.read["previous_depth"]).shape}
 
 
+ORDER = 520  # fsr2, after fsr2_depth_clip_pass: the history accumulated
+
 PASS = Pass(
     "fsr2_accumulate_pass", (8, 8, 1), "hr",
     (sampler("color", 0, "rgba16f"), sampler("dilated", 1, "rgba32f"), sampler("analysis", 2, "rgba32f"),

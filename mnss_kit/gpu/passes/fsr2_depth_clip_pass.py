@@ -28,6 +28,8 @@ def outputs(c: Call) -> dict:
     return {"analysis": (*c.read["dilated"].shape[:2], 4)}
 
 
+ORDER = 510  # fsr2, after fsr2_reconstruct_pass: disocclusion, thin features
+
 PASS = Pass(
     "fsr2_depth_clip_pass", (8, 8, 1), "lr",
     (sampler("dilated", 0, "rgba32f"), sampler("color", 1, "rgba16f"), buffer("previous_depth", 0, "uint[]"),

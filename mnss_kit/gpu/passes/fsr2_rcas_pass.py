@@ -18,6 +18,8 @@ def outputs(c: Call) -> dict:
     return {"output_image": (*c.read["image"].shape[:2], 3)}
 
 
+ORDER = 530  # fsr2, last: sharpened into the display
+
 PASS = Pass(
     "fsr2_rcas_pass", (8, 8, 1), "hr",
     (sampler("image", 0, HISTORY_FORMAT), image("output_image", 0, "rgba16f")),

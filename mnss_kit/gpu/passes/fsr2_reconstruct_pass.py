@@ -29,6 +29,8 @@ def outputs(c: Call) -> dict:
     return {"dilated": (h, w, 4), "previous_depth": (h * w,)}
 
 
+ORDER = 500  # fsr2, first: dilation and the previous depth reconstructed
+
 PASS = Pass(
     "fsr2_reconstruct_pass", (8, 8, 1), "lr",
     (sampler("depth", 0, "r32f"), sampler("motion", 1, "rg32f"), image("dilated", 0, "rgba32f"),

@@ -46,6 +46,8 @@ def outputs(c: Call) -> dict:
     return {"npu_input": (1, h, w, channels)}
 
 
+ORDER = 210  # FuseSR, after the encoder: packs the NPU input (the NPU runs next)
+
 PASS = Pass(
     "gbuffer_pack_pass", (64, 1, 1), "words",
     (sampler("l", 0, "rgba16f", array=True), sampler("features", 1, "rgba16f", array=True), sampler("warped", 2, "rgba16f"),

@@ -31,6 +31,8 @@ def outputs(c: Call) -> dict:
     return {"rectified": (h * s, w * s, 3)}
 
 
+ORDER = 120  # MNSS, after inpaint_weights_pass: blends by its weights
+
 PASS = Pass(
     "inpaint_blend_pass", (8, 8, 1), "hr",
     (sampler("color", 0, "rgba16f"), sampler("warped", 1, "rgba16f"), sampler("lr_weight", 2, "r32f"),

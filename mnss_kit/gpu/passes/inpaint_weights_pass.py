@@ -27,6 +27,8 @@ def outputs(c: Call) -> dict:
     return {"lr_weight": (*c.read["color"].shape[:2], 1)}
 
 
+ORDER = 110  # MNSS, after warp_pass: reads the warped history and depth
+
 PASS = Pass(
     "inpaint_weights_pass", (8, 8, 1), "lr",
     (sampler("color", 0, "rgba16f"), sampler("depth", 1, "r32f"), sampler("warped", 2, "rgba16f"),

@@ -20,6 +20,8 @@ def outputs(c: Call) -> dict:
     return {"npu_input": (1, *c.read["rectified"].shape[:2], 3)}
 
 
+ORDER = 150  # MNSS, after the AA net: packs the NPU input (the NPU runs next)
+
 PASS = Pass(
     "insert_pack_pass", (64, 1, 1), "words",
     (sampler("rectified", 0, "rgba16f"), sampler("aa", 1, "rgba16f", array=True),

@@ -27,6 +27,8 @@ def outputs(c: Call) -> dict:
     return {"history": (hh, hw, 3), "display": (hh, hw, 3)}
 
 
+ORDER = 220  # FuseSR, last, after the NPU: into the history and display
+
 PASS = Pass(
     "remodulate_pass", (8, 8, 1), "hr",
     (buffer("npu_output", 0, "uint[]", dtype="int8"), sampler("fbeta", 0, "rgba16f"), sampler("emissive", 1, "rgba16f"),

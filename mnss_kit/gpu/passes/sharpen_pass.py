@@ -16,6 +16,8 @@ def outputs(c: Call) -> dict:
     return {"display": (*c.read["image"].shape[:2], 3)}
 
 
+ORDER = 170  # MNSS, last: the output into the display
+
 PASS = Pass(
     "sharpen_pass", (8, 8, 1), "hr",
     (sampler("image", 0, HISTORY_FORMAT), image("display", 0, DISPLAY_FORMAT)),

@@ -31,6 +31,8 @@ def outputs(c: Call) -> dict:
     return {"history": (hh, hw, 4), "display": (hh, hw, 3)}
 
 
+ORDER = 320  # ntaau, after the NPU: the steered accumulation
+
 PASS = Pass(
     "taau_accumulate_pass", (8, 8, 1), "hr",
     (buffer("npu_output", 0, "uint[]", dtype="int8"), sampler("color", 0, "rgba16f"), sampler("reprojected", 1, "rgba16f"),

@@ -27,6 +27,8 @@ def outputs(c: Call) -> dict:
     return {"display": (hh, hw, 3)}
 
 
+ORDER = 330  # ntaau, last: the display
+
 PASS = Pass(
     "taau_filter_pass", (8, 8, 1), "hr",
     (buffer("npu_output", 0, "uint[]", dtype="int8"), sampler("history", 0, HISTORY_FORMAT), sampler("motion", 1, "rg32f"),

@@ -33,6 +33,8 @@ def outputs(c: Call) -> dict:
     return {"history": (hh, hw, 4), "display": (hh, hw, 3)}
 
 
+ORDER = 430  # ntaau_lr, after the NPU: the accumulation steered from LR
+
 PASS = Pass(
     "taau_lr_accumulate_pass", (8, 8, 1), "hr",
     (buffer("npu_output", 0, "uint[]", dtype="int8"), sampler("color", 0, "rgba16f"), sampler("reprojected", 1, "rgba16f"),

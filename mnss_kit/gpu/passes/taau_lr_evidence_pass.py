@@ -26,6 +26,8 @@ def outputs(c: Call) -> dict:
     return {"evidence": (*c.read["depth"].shape[:2], 4)}
 
 
+ORDER = 410  # ntaau_lr, after taau_lr_reproject_pass: the evidence at LR
+
 PASS = Pass(
     "taau_lr_evidence_pass", (8, 8, 1), "lr",
     (sampler("depth", 0, "r32f"), sampler("prev_depth", 1, "r32f"), sampler("motion", 2, "rg32f"), image("evidence", 0, "rgba32f")),

@@ -29,6 +29,8 @@ def outputs(c: Call) -> dict:
     return {"display": (*c.read["history"].shape[:2], 3)}
 
 
+ORDER = 440  # ntaau_lr, last: the display
+
 PASS = Pass(
     "taau_lr_filter_pass", (8, 8, 1), "hr",
     (buffer("npu_output", 0, "uint[]", dtype="int8"), sampler("history", 0, HISTORY_FORMAT), image("display", 0, DISPLAY_FORMAT)),

@@ -30,6 +30,8 @@ def outputs(c: Call) -> dict:
     return {"npu_input": (1, h + h % 2, w + w % 2, 9 if c.uniforms.get("u_scale_input", 0.0) else 8)}
 
 
+ORDER = 420  # ntaau_lr, after the evidence: packs the NPU input (the NPU runs next)
+
 PASS = Pass(
     "taau_lr_pack_pass", (64, 1, 1), "words",
     (sampler("color", 0, "rgba16f"), sampler("reprojected", 1, "rgba16f"), sampler("evidence", 2, "rgba32f"),

@@ -15,6 +15,8 @@ def outputs(c: Call) -> dict:
     return {"reprojected": (*c.read["history"].shape[:2], 4)}
 
 
+ORDER = 400  # ntaau_lr, first: the history reprojected
+
 PASS = Pass(
     "taau_lr_reproject_pass", (8, 8, 1), "hr",
     (sampler("history", 0, HISTORY_FORMAT), sampler("motion", 1, "rg32f"), image("reprojected", 0, "rgba16f")),

@@ -24,6 +24,8 @@ def outputs(c: Call) -> dict:
     return {"npu_input": (1, *c.read["color"].shape[:2], 3 + 5 * s * s)}
 
 
+ORDER = 310  # ntaau, after taau_reproject_pass: packs the NPU input (the NPU runs next)
+
 PASS = Pass(
     "taau_pack_pass", (64, 1, 1), "words",
     (sampler("color", 0, "rgba16f"), sampler("reprojected", 1, "rgba16f"), buffer("npu_input", 0, "uint[]", "write", "int8")),

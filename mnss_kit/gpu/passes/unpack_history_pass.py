@@ -20,6 +20,8 @@ def outputs(c: Call) -> dict:
     return {"history": (hh, hw, 3), "display": (hh, hw, 3)}
 
 
+ORDER = 160  # MNSS, after the NPU: its output into the history and display
+
 PASS = Pass(
     "unpack_history_pass", (8, 8, 1), "hr",
     (buffer("npu_output", 0, "uint[]", dtype="int8"), image("history", 0, HISTORY_FORMAT), image("display", 1, DISPLAY_FORMAT)),

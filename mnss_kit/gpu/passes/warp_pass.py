@@ -28,6 +28,8 @@ def outputs(c: Call) -> dict:
     return {"warped": (hh, hw, 3), "warped_depth": (h, w, 1)}
 
 
+ORDER = 100  # MNSS, first: the previous output warped to this frame
+
 PASS = Pass(
     "warp_pass", (8, 8, 1), "hr",
     (sampler("history", 0, HISTORY_FORMAT), sampler("prev_depth", 1, "r32f"), sampler("motion", 2, "rg32f"),
