@@ -130,7 +130,7 @@ def open_windows(cfg: TrainConfig, dirs: list[Path], crop: int | None, progress:
     key ``scale`` (docs/architecture.md), so the data may mix scales and every window carries it."""
     size = None if crop is None else (crop, crop)
     hr_buffers = tuple(family.hr_inputs) if family else ()
-    if augment and "taa_reference" in cfg.augment:  # a window may take the native TAA render as its target
+    if augment and cfg.augment.get("taa_reference", 0.0) > 0.0:  # a window may take the native TAA render as its target
         hr_buffers += ("reference_taa",)
     return WindowDataset([str(d) for d in dirs], cfg.frames_per_window, size, seed=cfg.seed, cache=True, cache_dir=cfg.cache_dir,
                          progress=progress,
