@@ -114,17 +114,20 @@ def upsample_to_hr(x: np.ndarray, scale, hr_size=None) -> np.ndarray:
 
 
 def steer_from_lr(raw: np.ndarray, trust_lr: np.ndarray, scale, box_bound: float, filter_bound: float,
-                  hr_size=None) -> Steer:
+                  hr_size=None, floor=0.0) -> Steer:
     """The raw LR steering (h, w, 6; the net's padded output cropped) and the trust map (h, w, 1)
     upsampled bilinearly to HR (clamp-to-edge, texel centres) and mapped: history gain 2 sigmoid,
     its part above 1 scaled by the trust; sample gain 2 sigmoid; box widening, a widening scaled by
-    the trust; fallback max(tanh, 0); the display filter's weights ``filter_bound`` tanh."""
+    the trust; fallback max(tanh, 0); the display filter's weights ``filter_bound`` tanh.  The
+    history gain after the trust gate is at least ``floor`` (``ops.taau.history_floor``, (H, W, 1)
+    or a scalar)."""
     both = np.concatenate([np.asarray(raw, np.float32), np.asarray(trust_lr, np.float32)], axis=-1)
     hr = upsample_to_hr(both, scale, hr_size)
     allowed = hr[..., 6:7]
     sigmoid = lambda x: 1.0 / (1.0 + np.exp(-np.clip(x, -80.0, 80.0)))  # noqa: E731  (no overflow; same values)
     history_gain = 2.0 * sigmoid(hr[..., 0:1])
     history_gain = np.where(history_gain > 1.0, 1.0 + (history_gain - 1.0) * allowed, history_gain)
+    history_gain = np.maximum(history_gain, np.asarray(floor, np.float32))
     widen = box_widening(hr[..., 2:3], box_bound)
     widen = np.where(widen > 0.0, widen * allowed, widen)
     bound = np.float32(filter_bound)

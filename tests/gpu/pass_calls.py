@@ -129,10 +129,13 @@ class NamedPasses:
         return self._run("taau_lr_pack_pass", read, uniforms, profile=profile)["npu_input"]
 
     def taau_lr_accumulate(self, npu_output, color, reprojected, evidence, jitter, scale, q_scale, q_zero_point, box_bound,
-                           sample_sigma, prior_weight, max_weight):
+                           sample_sigma, prior_weight, max_weight, motion=None, history_gain_min=0.0, still_motion_px=0.0):
         uniforms = {"u_scale": scale, **dequantize_uniforms(q_scale, q_zero_point), "u_box_bound": float(box_bound),
+                    "u_history_gain_min": float(history_gain_min), "u_still_motion_px": float(still_motion_px),
                     "u_sample_sigma": float(sample_sigma), "u_prior_weight": float(prior_weight), "u_max_weight": float(max_weight)}
-        read = {"npu_output": npu_output, "color": color, "reprojected": reprojected, "evidence": evidence}
+        if motion is None:  # no floor that fades with the motion: it is not read
+            motion = np.zeros((*color.shape[:2], 2), np.float32)
+        read = {"npu_output": npu_output, "color": color, "reprojected": reprojected, "evidence": evidence, "motion": motion}
         out = self._run("taau_lr_accumulate_pass", read, uniforms, jitter, None, scale)
         return out["history"], out["display"]
 

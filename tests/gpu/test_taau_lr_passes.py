@@ -102,3 +102,23 @@ def test_passes_sanitize_their_inputs(mesa, ref):
     assert_float_close(got, want, 1e-5)
     pack = (f["color"], f["reprojected"], want, 2, False, PARAMS.max_weight, 1.0 / 100.0, -20, "tflite-ref")
     assert np.abs(mesa.taau_lr_pack(*pack).astype(int) - ref.taau_lr_pack(*pack).astype(int)).max() <= 1
+
+
+@pytest.mark.parametrize("size", SIZES, ids=["odd", "even"])
+@pytest.mark.parametrize("scale", [2, 3])
+def test_steered_accumulation_with_a_history_floor_matches_reference(mesa, ref, size, scale):
+    """``u_history_gain_min`` 1, ``u_still_motion_px`` 1: the history gain, after the trust gate, at
+    least the floor that fades with the HR motion (``ops.taau.history_floor``), read from ``motion``."""
+    rng, f = _frame(ref, 13 * scale, *size, scale)
+    h, w = size
+    steering = rng.integers(-128, 128, (1, h + h % 2, w + w % 2, 6)).astype(np.int8)
+    f["motion"][:, w // 2:] *= np.float32(0.1)  # part of the frame moves under a HR pixel: the floor holds there
+    jitter = pattern_jitters("grid", scale)[0]
+    args = (steering, f["color"], f["reprojected"], f["evidence"], jitter, scale, 0.03, 3, 1.5, PARAMS.sample_sigma,
+            PARAMS.prior_weight, PARAMS.max_weight)
+    floor = dict(motion=f["motion"], history_gain_min=1.0, still_motion_px=1.0)
+    (history, display), (want_history, want_display) = mesa.taau_lr_accumulate(*args, **floor), ref.taau_lr_accumulate(*args, **floor)
+    assert_float_close(history, want_history, TOLERANCE)
+    assert np.abs(display.astype(int) - want_display.astype(int)).max() <= 1
+    plain, _ = ref.taau_lr_accumulate(*args)
+    assert np.abs(want_history.astype(np.float32) - plain.astype(np.float32)).max() > 0.01  # the floor changed the blend

@@ -7,21 +7,23 @@ import numpy as np
 
 from ...ops import taau, taau_lr
 from ...ops.int8 import quantize as quant
-from ...ops.sanitize import sanitize_colour
+from ...ops.sanitize import sanitize_colour, sanitize_motion
 from ..storage import encode_unorm8, to_half
 from .record import DISPLAY_FORMAT, HISTORY_FORMAT, Call, Pass, buffer, image, sampler
 
 
 def reference(c: Call) -> dict:
     """npu_output (1,h',w',6) int8 raw LR steering, color (h,w,3), reprojected (H,W,4), evidence
-    (h,w,4) -> history (H,W,4) fp16 values: the blend and its weight, display (H,W,3) uint8 codes
+    (h,w,4), motion (h,w,2; read only for a history-gain floor that fades with it) -> history (H,W,4) fp16 values: the blend and its weight, display (H,W,3) uint8 codes
     of the blend, without the display filter."""
     r, u, scale = c.read, c.u, c.u("u_scale")
     h, w = np.asarray(r["color"]).shape[:2]
     reprojected = np.asarray(r["reprojected"])
     hr_size = (reprojected.shape[1], reprojected.shape[0])  # u_scale 0: the sizes give the ratio
     raw = quant.dequantize(np.asarray(r["npu_output"], np.int8), u("u_q_scale"), u("u_q_zero_point"))[0, :h, :w]
-    steer = taau_lr.steer_from_lr(raw, np.asarray(r["evidence"], np.float32)[..., 2:3], scale, u("u_box_bound"), 0.0, hr_size)
+    floor = taau.history_floor(sanitize_motion(r["motion"]), scale, u("u_history_gain_min"), u("u_still_motion_px"), hr_size)
+    steer = taau_lr.steer_from_lr(raw, np.asarray(r["evidence"], np.float32)[..., 2:3], scale, u("u_box_bound"), 0.0, hr_size,
+                                  floor)
     terms = taau.current_terms(sanitize_colour(to_half(r["color"])), c.offset, scale, u("u_sample_sigma"), hr_size)
     history = to_half(reprojected)
     _, blend, weight = taau.blend(*terms, history[..., :3], history[..., 3:], u("u_prior_weight"), u("u_max_weight"), steer)
@@ -38,8 +40,9 @@ ORDER = 430  # ntaau_lr, after the NPU: the accumulation steered from LR
 PASS = Pass(
     "taau_lr_accumulate_pass", (8, 8, 1), "hr",
     (buffer("npu_output", 0, "uint[]", dtype="int8"), sampler("color", 0, "rgba16f"), sampler("reprojected", 1, "rgba16f"),
-     sampler("evidence", 2, "rgba32f"), image("history", 0, HISTORY_FORMAT), image("display", 1, DISPLAY_FORMAT)),
-    ("u_scale", "u_jitter", "u_q_scale", "u_q_zero_point", "u_box_bound", "u_sample_sigma", "u_prior_weight",
-     "u_max_weight"),
+     sampler("evidence", 2, "rgba32f"), sampler("motion", 3, "rg32f"), image("history", 0, HISTORY_FORMAT),
+     image("display", 1, DISPLAY_FORMAT)),
+    ("u_scale", "u_jitter", "u_q_scale", "u_q_zero_point", "u_box_bound", "u_history_gain_min", "u_still_motion_px",
+     "u_sample_sigma", "u_prior_weight", "u_max_weight"),
     exact=False, reference=reference, outputs=outputs,
 )

@@ -30,6 +30,11 @@ class NTAAULRConfig:
     # object, where dilated or rigid motion vectors are wrong)
     trust_spread_px: float = 1.0
     alpha: float = 0.1  # TAAU's converged blend factor (model.taau.TAAUParams)
+    # > 0: the history gain, after the trust gate, is at least this (ntaau's floor, model.taau.history_floor)
+    history_gain_min: float = 0.0
+    # > 0: the floor holds only where the surface moved less than this many HR pixels since the last
+    # frame, fading linearly to none at it; 0: everywhere
+    still_motion_px: float = 0.0
     # the NPU input gets a 9th channel, 1 / scale (a constant map), so one checkpoint can serve several scales
     scale_input: bool = False
 
@@ -51,6 +56,10 @@ class NTAAULRConfig:
             raise ValueError(f"filter_bound must be in [0, 0.25], got {self.filter_bound}")
         if self.trust_depth <= 0.0 or self.trust_spread_px <= 0.0:
             raise ValueError("trust_depth and trust_spread_px must be > 0")
+        if not 0.0 <= self.history_gain_min <= 1.0:
+            raise ValueError(f"history_gain_min must be in [0, 1], got {self.history_gain_min}")
+        if self.still_motion_px < 0.0:
+            raise ValueError(f"still_motion_px must be >= 0, got {self.still_motion_px}")
 
     def npu_input_channels(self) -> int:
         return FEATURE_CHANNELS + (1 if self.scale_input else 0)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..mac_units import BILINEAR
-from ..ntaau.costs import BICUBIC, TRANSCENDENTAL
+from ..ntaau.costs import BICUBIC, TRANSCENDENTAL, history_floor
 
 
 def fixed_macs(c) -> dict[str, float]:
@@ -14,6 +14,7 @@ def fixed_macs(c) -> dict[str, float]:
     # per LR pixel: block means of 3 HR values, 3x3 nearest depth, its bilinear fetch, the change;
     # 8 motion differences; the trust ramp
     features = 3 * 9 + 3 + lr * (9 + BILINEAR + 3 + 8 * 3 + 4)
-    # the 7 LR values upsampled, 6 activations, the trust gate, box, clamp, blend, fallback, RGB, filter
-    accumulate = 7 * BILINEAR + 6 * TRANSCENDENTAL + 4 + 3 * 4 + 6 + 3 * 3 + 3 * 2 + 4 + 9 * 3
+    # the 7 LR values upsampled, 6 activations, the trust gate, box, clamp, blend, fallback, RGB, filter;
+    # the motion-dependent floor
+    accumulate = 7 * BILINEAR + 6 * TRANSCENDENTAL + 4 + 3 * 4 + 6 + 3 * 3 + 3 * 2 + 4 + 9 * 3 + history_floor(c)
     return {"lr_gather": reproject + samples + 3 * BICUBIC + 9 + 3 + features, "steer": 0.0, "lr_accumulate": accumulate}

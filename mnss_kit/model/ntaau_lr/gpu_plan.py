@@ -122,8 +122,9 @@ def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile
          "inputs": {npu["input"]: "npu_input"}, "outputs": {npu["output"]: "npu_output"}},
         step("taau_lr_accumulate_pass", "steered accumulation", "lr_accumulate",
              {"npu_output": "npu_output", "color": "color", "reprojected": "reprojected", "evidence": "evidence",
-              "history": "history", "display": "display"},
+              "motion": "motion", "history": "history", "display": "display"},
              {"u_scale": const(s), "u_jitter": per_frame("offset"), **dequantize, "u_box_bound": const(config.box_bound),
+              "u_history_gain_min": const(config.history_gain_min), "u_still_motion_px": const(config.still_motion_px),
               "u_sample_sigma": const(params.sample_sigma), "u_prior_weight": const(params.prior_weight),
               "u_max_weight": const(params.max_weight)}, **a),
     ]

@@ -17,7 +17,8 @@ accumulation):
                        conv 1x1, depth-to-space, added to the first conv's output, conv 3x3:
                        6 raw values per LR pixel (1.5 bytes per HR pixel at x2 in int8)
     lr_accumulate (gpu) the raw values upsampled bilinearly to HR and mapped to the steering:
-                       history gain 2 sigmoid(a), sample gain 2 sigmoid(b), box widening
+                       history gain 2 sigmoid(a) (trust-gated, then at least
+                       ``model.taau.history_floor``), sample gain 2 sigmoid(b), box widening
                        (``model.taau.box_widening``), spatial fallback max(tanh(d), 0) and the
                        display filter's weights filter_bound tanh(e), tanh(f); TAAU's blend
                        with them
@@ -42,8 +43,8 @@ from torch import nn
 
 from ..family import check_frame
 from ..layers import warp_bilinear
-from ..taau import (Steer, TAAUInputs, TAAUParams, blend, block_mean, box_widening, hr_dims, is_tiled, rgb_to_ycocg,
-                    sanitize_colour, sanitize_depth, sanitize_motion, start_frame, taau_inputs)
+from ..taau import (Steer, TAAUInputs, TAAUParams, blend, block_mean, box_widening, history_floor, hr_dims, is_tiled,
+                    rgb_to_ycocg, sanitize_colour, sanitize_depth, sanitize_motion, start_frame, taau_inputs)
 from ...ops.scale import parse_scale, size_mismatch
 from .config import NTAAULRConfig
 
@@ -145,10 +146,12 @@ def _conv(c_in: int, c_out: int, k: int) -> nn.Conv2d:
     return conv
 
 
-def steer_from_lr(raw: torch.Tensor, trust_lr: torch.Tensor, config: NTAAULRConfig, hr_size=None) -> Steer:
+def steer_from_lr(raw: torch.Tensor, trust_lr: torch.Tensor, config: NTAAULRConfig, hr_size=None,
+                  floor: torch.Tensor | float = 0.0) -> Steer:
     """The raw LR steering (N, 6, h, w) and the trust map (N, 1, h, w), upsampled bilinearly to HR
-    (clamp-to-edge, texel centres as a GPU's linear filter), mapped to their ranges.  The HR size
-    ``(W, H)``: ``hr_size``, else ``model.taau.hr_dims`` of the scale."""
+    (clamp-to-edge, texel centres as a GPU's linear filter), mapped to their ranges; the history
+    gain after the trust gate at least ``floor`` (``model.taau.history_floor``, (N, 1, H, W) or a
+    scalar).  The HR size ``(W, H)``: ``hr_size``, else ``model.taau.hr_dims`` of the scale."""
     s = config.scale
     both = torch.cat([raw, trust_lr], dim=1)
     hr_hw = hr_dims(both.shape[-2:], s, hr_size)
@@ -159,6 +162,7 @@ def steer_from_lr(raw: torch.Tensor, trust_lr: torch.Tensor, config: NTAAULRConf
     allowed = hr[:, 6:7]
     history_gain = 2.0 * torch.sigmoid(hr[:, 0:1])
     history_gain = torch.where(history_gain > 1.0, 1.0 + (history_gain - 1.0) * allowed, history_gain)
+    history_gain = torch.maximum(history_gain, torch.as_tensor(floor, dtype=history_gain.dtype))
     widen = box_widening(hr[:, 2:3], config.box_bound)
     widen = torch.where(widen > 0.0, widen * allowed, widen)
     return Steer(history_gain=history_gain, sample_gain=2.0 * torch.sigmoid(hr[:, 1:2]), box_widen=widen,
@@ -179,7 +183,9 @@ class Accumulate(nn.Module):
     def forward(self, inputs: TAAUInputs, trust_lr, raw):
         h, w = trust_lr.shape[-2:]
         hr_size = (inputs.samples.shape[-1], inputs.samples.shape[-2])
-        return blend(inputs, self.params, steer_from_lr(raw[:, :, :h, :w], trust_lr, self.config, hr_size))
+        c = self.config
+        floor = history_floor(inputs.hr_motion, c.history_gain_min, c.still_motion_px)
+        return blend(inputs, self.params, steer_from_lr(raw[:, :, :h, :w], trust_lr, c, hr_size, floor))
 
 
 class NTAAULR(nn.Module):

@@ -115,14 +115,18 @@ float filter_gain(highp sampler2D motion, ivec2 hr, int scale, float falloff) {
     return exp(-falloff * (spread.x + spread.y));
 }
 
+// The least history gain where the HR motion is `hr_motion` (ops.taau.history_floor), still_motion_px > 0.
+float history_floor_of(vec2 hr_motion, float history_gain_min, float still_motion_px) {
+    return history_gain_min * clamp(1.0 - length(hr_motion) / still_motion_px, 0.0, 1.0);
+}
+
 // The least history gain at HR texel `hr` (ops.taau.history_floor); the motion is read only when
 // the floor fades with it.
 float history_floor(highp sampler2D motion, ivec2 hr, int scale, float history_gain_min, float still_motion_px) {
     if (still_motion_px <= 0.0) {
         return history_gain_min;
     }
-    float motion_px = length(upsampled_motion_at(motion, hr, scale));
-    return history_gain_min * clamp(1.0 - motion_px / still_motion_px, 0.0, 1.0);
+    return history_floor_of(upsampled_motion_at(motion, hr, scale), history_gain_min, still_motion_px);
 }
 
 Steer steer_from_raw(float raw[6], float correction_bound, float history_gain_min, float box_bound) {

@@ -5,6 +5,7 @@
 //        color        LR rgba16f     jittered LR colour, display values
 //        reprojected  HR rgba16f     taau_reproject_pass
 //        evidence     LR rgba32f     taau_lr_evidence_pass (the trust, b)
+//        motion       LR rg32f       LR motion (the history-gain floor holds where it is small)
 //   out  history      HR rgba16f     the blend (rgb) and its accumulated weight (a)
 //        display      HR rgba8       the blend as 8-bit display codes (taau_lr_filter_pass replaces
 //                                    it in models with a display filter)
@@ -19,6 +20,7 @@ layout(std430, binding = 0) readonly buffer NpuOutput { uint npu_output[]; };
 layout(binding = 0) uniform highp sampler2D color;
 layout(binding = 1) uniform highp sampler2D reprojected;
 layout(binding = 2) uniform highp sampler2D evidence;
+layout(binding = 3) uniform highp sampler2D motion;
 layout(rgba16f, binding = 0) uniform writeonly highp image2D history;
 layout(rgba8, binding = 1) uniform writeonly highp image2D display;
 
@@ -27,6 +29,8 @@ uniform vec2 u_jitter;
 uniform float u_q_scale;
 uniform int u_q_zero_point;
 uniform float u_box_bound;
+uniform float u_history_gain_min;
+uniform float u_still_motion_px;
 uniform float u_sample_sigma;
 uniform float u_prior_weight;
 uniform float u_max_weight;
@@ -64,6 +68,12 @@ void main() {
         raw[c] = upsampled_at(t, c);
     }
     LrSteer s = steer_from_lr(raw, upsampled_at(t, STEER_CHANNELS), u_box_bound);
+    float floor_gain = u_history_gain_min;
+    if (u_still_motion_px > 0.0) {  // the motion is read only when the floor fades with it
+        vec2 m = u_scale == 0 ? resized_motion_at(motion, hr, size) : upsampled_motion_at(motion, hr, u_scale);
+        floor_gain = history_floor_of(m, u_history_gain_min, u_still_motion_px);
+    }
+    s.history_gain = max(s.history_gain, floor_gain);
     Neighbourhood n;
     vec3 spatial;
     if (u_scale == 0) {
