@@ -16,6 +16,15 @@ def mesa():
     return NamedPasses(MesaPasses())
 
 
+@pytest.fixture(scope="module")
+def gl(request):
+    """The session's Mesa context, for tests that skip where EGL or Mesa is missing."""
+    try:
+        return request.getfixturevalue("mesa")
+    except Exception as e:  # noqa: BLE001 (no EGL display, no GL 4.3 context, no moderngl)
+        pytest.skip(f"no Mesa/EGL context: {e}")
+
+
 @pytest.fixture(scope="session")
 def ref():
     return NamedPasses(ReferencePasses())

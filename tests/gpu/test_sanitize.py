@@ -38,15 +38,6 @@ PARAMS = TAAUParams()
 TOLERANCE = 2e-3  # as test_taau_passes: exp and tanh differ between drivers by a few ULP
 
 
-@pytest.fixture(scope="module")
-def gl(request):
-    """The session's Mesa context; skipped where EGL or Mesa is missing."""
-    try:
-        return request.getfixturevalue("mesa")
-    except Exception as e:  # noqa: BLE001 (no EGL display, no GL 4.3 context, no moderngl)
-        pytest.skip(f"no Mesa/EGL context: {e}")
-
-
 def probes() -> np.ndarray:
     """NaNs (quiet, signalling, negative, payloads), +-Inf, every finite fp16, float32 values beyond
     fp16's range, zeros, subnormals and random bit patterns (as float32)."""

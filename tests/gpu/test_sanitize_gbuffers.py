@@ -18,15 +18,6 @@ from mnss_kit.ops.sanitize import COLOUR_MAX, sanitize_depth, sanitize_gbuffer
 H, W = 5, 7
 
 
-@pytest.fixture(scope="module")
-def gl(request):
-    """The session's Mesa context; skipped where EGL or Mesa is missing."""
-    try:
-        return request.getfixturevalue("mesa")
-    except Exception as e:  # noqa: BLE001 (no EGL display, no GL 4.3 context, no moderngl)
-        pytest.skip(f"no Mesa/EGL context: {e}")
-
-
 def _poison(image: np.ndarray) -> np.ndarray:
     """``image`` with NaN, +Inf and -Inf texels (whole texels and single channels)."""
     image = image.copy()
