@@ -56,9 +56,11 @@ def still_mask(frames) -> np.ndarray:
 
 
 def psnr(a: np.ndarray, b: np.ndarray, mask: np.ndarray | None = None) -> float:
-    diff = np.clip(a, 0, 1) - np.clip(b, 0, 1)
-    mse = np.mean(diff[mask] ** 2) if mask is not None else np.mean(diff ** 2)
-    return float(10 * np.log10(1.0 / mse))
+    """``metrics.psnr`` of the clipped frames, over the ``mask`` pixels when given."""
+    from mnss_kit.metrics.psnr import psnr as image_psnr
+
+    a, b = np.clip(a, 0, 1), np.clip(b, 0, 1)
+    return image_psnr(a, b) if mask is None else image_psnr(a[mask], b[mask])
 
 
 def outputs(method, frames) -> list[np.ndarray]:
