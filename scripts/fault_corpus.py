@@ -629,11 +629,15 @@ def misc_cases() -> list[Case]:
                "jitter=sideways", "fps=0", "nosuchkey=1", "lr_size=[99999,99999]"]:
         cases.append(render_set(kv))
 
-    def render_config(text: str, name: str):
+    def config_case(command: str, text: str, name: str):
+        """``command`` given a config file holding ``text``."""
         def prepare(ctx, s):
-            (s / "c.yaml").write_text(text)
-            return ["render", s / "c.yaml", "--out", s / "out", "--no-progress"]
-        return Case(f"render--config-{name}", "render", prepare)
+            (s / "config.yaml").write_text(text)
+            return [command, s / "config.yaml", "--out", s / "out", "--no-progress"]
+        return Case(f"{command}--config-{name}", command, prepare)
+
+    def render_config(text: str, name: str):
+        return config_case("render", text, name)
 
     cases += [render_config("", "empty"), render_config("version: 1\nsequences: []\n", "no-sequences"),
               render_config("version: 1\nsequences: [{name: a}]\n", "sequence-without-scene"),
@@ -644,10 +648,7 @@ def misc_cases() -> list[Case]:
                       lambda ctx, s: ["render", "tiny_test", "--out", s / "out", "--shard", "3/2", "--no-progress"]))
 
     def train_config(text: str, name: str):
-        def prepare(ctx, s):
-            (s / "t.yaml").write_text(text)
-            return ["train", s / "t.yaml", "--out", s / "out", "--no-progress"]
-        return Case(f"train--config-{name}", "train", prepare)
+        return config_case("train", text, name)
 
     cases += [train_config("", "empty"), train_config("schema: 1\nmodel: {family: nope}\n", "unknown-family"),
               train_config("\x00\x01\x02garbage", "binary")]
