@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..dataset.variants import ENGINE
+from ..ops.jitter import RENAMED_PATTERNS
 
 VARIANTS = {
     "grid": ("grid", [], "the toolkit's own inputs: grid jitter, float colour, depth and motion"),
@@ -24,8 +25,8 @@ VARIANTS = {
                "guessed near plane, motion packed in 8-bit pairs, dilated, rigid on skinned objects, absent on some"),
     "engine_halton": ("halton", list(ENGINE), "the engine variant with Halton (2, 3) jitter"),
 }
-# Earlier variant name -> today's: the grid jitter pattern was called mnss (ops.jitter.RENAMED_PATTERNS).
-RENAMED_VARIANTS = {"mnss": "grid"}
+# Earlier variant name -> today's: a variant named after its jitter pattern took the pattern's rename.
+RENAMED_VARIANTS = {old: new for old, new in RENAMED_PATTERNS.items() if new in VARIANTS}
 
 
 def current_variant_names(entries: dict) -> dict:
@@ -64,8 +65,6 @@ def variant_set(name: str, config: str, work: Path, frames: int, base: Path | No
 def _render_dir(root: Path, pattern: str) -> Path:
     """``root/render_<pattern>``; a work directory rendered before the pattern was renamed
     (``render_mnss`` for grid) is used as it is, since its frames are the same."""
-    from ..ops.jitter import RENAMED_PATTERNS
-
     path = root / f"render_{pattern}"
     earlier = [root / f"render_{old}" for old, new in RENAMED_PATTERNS.items() if new == pattern]
     return next((d for d in earlier if d.is_dir() and not path.exists()), path)
