@@ -107,12 +107,15 @@ def print_table(name: str, tally: Tally) -> None:
               f"| {tally.taau[label] / taau_total:.1%} | {ratio:.2f} |")
 
 
-def model_and_data_args(description: str) -> argparse.Namespace:
-    """``--data``, ``--model`` and ``--frames``, the arguments of the scripts that set a model against TAAU."""
+def model_and_data_args(description: str, extra=None) -> argparse.Namespace:
+    """``--data``, ``--model`` and ``--frames``, the arguments of the scripts that set a model against
+    TAAU, and what ``extra(parser)`` adds."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--data", type=Path, default=Path("data/test_x2"), help="a dataset or sequence directory")
     parser.add_argument("--model", default="ntaau_x2", help="a checkpoint or a shipped name")
     parser.add_argument("--frames", type=int, default=FRAMES, help="frames per sequence, from the first")
+    if extra is not None:
+        extra(parser)
     return parser.parse_args()
 
 

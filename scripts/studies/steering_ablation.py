@@ -1,15 +1,15 @@
 #!/usr/bin/env python
-"""What each steering value of an ntaau model is worth, sequence by sequence: the model run with
+"""What each steering value of an ntaau or ntaau_lr model is worth, sequence by sequence: the model run with
 one of its steering outputs held at TAAU's own value, against TAAU.
 
     python scripts/studies/steering_ablation.py --data data/test_x2 --model ntaau_x2
 
 No retraining: the trained net runs unchanged and only the chosen raw outputs are replaced
-before ``taau_accumulate`` maps them (a raw 0 is TAAU's value for each: gains of 1, the clamp box
-as TAAU sets it, no correction, no display filter).  Two more rows bound the history gain instead:
+before they are mapped (a raw 0 is TAAU's value for each: gains of 1, the clamp box as TAAU sets
+it, no correction, no fallback, no display filter).  Two more rows bound the history gain instead:
 at least TAAU's (``history >= taau``) or at most (``history <= taau``).  Each cell is the mean over
 the first ``--frames`` (24) of the per-frame PSNR difference to TAAU, in dB; the columns are the
-sequences, the last their mean.  A second table gives the mean and standard deviation over
+sequences, the last their mean.  For ntaau a second table gives the mean and standard deviation over
 every HR pixel of those frames of the trained steering values, mapped to their ranges (the
 history gain before the floor ``history_gain_min`` puts under it on still pixels).
 """
@@ -26,17 +26,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from error_breakdown import model_and_data_args, sequences_in, squared_error  # noqa: E402
 
-# raw steering channels (model.taau.steer_from_raw): 0 history gain, 1 sample gain, 2 box, 3-5
-# correction, 6-7 display filter
+# raw steering channels per family: ntaau (model.taau.steer_from_raw) 0 history gain, 1 sample
+# gain, 2 box, 3-5 correction, 6-7 display filter; ntaau_lr (model.ntaau_lr.net.steer_from_lr) 0
+# history gain, 1 sample gain, 2 box, 3 spatial fallback, 4-5 display filter
 ABLATIONS = {
-    "as trained": None,
-    "history gain": (0,),
-    "sample gain": (1,),
-    "clamp box": (2,),
-    "correction": (3, 4, 5),
-    "display filter": (6, 7),
-    "history >= taau": "floor",
-    "history <= taau": "cap",
+    "ntaau": {"as trained": None, "history gain": (0,), "sample gain": (1,), "clamp box": (2,),
+              "correction": (3, 4, 5), "display filter": (6, 7), "history >= taau": "floor",
+              "history <= taau": "cap"},
+    "ntaau_lr": {"as trained": None, "history gain": (0,), "sample gain": (1,), "clamp box": (2,),
+                 "fallback": (3,), "display filter": (4, 5), "history >= taau": "floor",
+                 "history <= taau": "cap"},
 }
 
 
@@ -111,25 +110,30 @@ def main() -> int:
     from mnss_kit.eval.baselines import TAAU
     from mnss_kit.model.checkpoint import load
 
-    args = model_and_data_args(__doc__.splitlines()[0])
+    args = model_and_data_args(__doc__.splitlines()[0], extra=lambda p: p.add_argument(
+        "--rows", nargs="+", help="only these rows, by name (e.g. 'as trained' 'display filter')"))
     try:
         sequences = sequences_in(args.data)
         model = load(args.model)[0].eval()
-        if model.config.family != "ntaau":
-            raise UserError(f"{args.model}: not an ntaau model; only ntaau models steer TAAU")
+        family = model.config.family
+        if family not in ABLATIONS:
+            raise UserError(f"{args.model}: a {family} model; only ntaau and ntaau_lr models steer TAAU")
         taau = {seq.name: frame_psnrs(seq, TAAU(fmt.read_meta(seq).scale).step, args.frames) for seq in sequences}
         print("| steering | " + " | ".join(f"`{s.name}`" for s in sequences) + " | mean |")
         print("|---|" + "---:|" * (len(sequences) + 1))
         stats = {}
-        for name, change in ABLATIONS.items():
+        rows = {k: v for k, v in ABLATIONS[family].items() if not args.rows or k in args.rows}
+        for name, change in rows.items():
             margins = []
             for seq in sequences:
-                seen = [] if change is None else None
+                seen = [] if change is None and family == "ntaau" else None
                 margins.append(float((frame_psnrs(seq, ablated_step(model, change, seen), args.frames) - taau[seq.name]).mean()))
                 if seen:
                     stats[seq.name] = steering_stats(model, seen)
             label = f"{name} held" if isinstance(change, tuple) else name
             print(f"| {label} | " + " | ".join(f"{m:+.3f}" for m in margins) + f" | {np.mean(margins):+.3f} |", flush=True)
+        if not stats:
+            return 0
         print("\n| steering value, mean (std) | " + " | ".join(f"`{s}`" for s in stats) + " |")
         print("|---|" + "---:|" * len(stats))
         for value in next(iter(stats.values())):
