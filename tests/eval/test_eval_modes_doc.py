@@ -4,7 +4,6 @@ the split's estimated ms on each device profile."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -13,14 +12,6 @@ import pytest
 from mnss_kit.split.device import device_names
 
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "eval_modes.py"
-
-
-@pytest.fixture(scope="module")
-def script():
-    spec = importlib.util.spec_from_file_location("eval_modes", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def scores(psnr: float, ssim: float, if_ssim: float) -> dict:
