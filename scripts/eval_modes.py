@@ -19,6 +19,13 @@ overrides (``frames=24``, ``hr_samples=4``).  Renders are slow (16 HR samples, t
 A checkpoint of a family that reads the frame key ``scale`` (docs/architecture.md) runs at every
 mode; one of another family only at its own scale (eval refuses the others in one line, and the
 entry records the refusal).  ``none`` evaluates the baselines alone.
+
+``--doc FILE`` also writes the quality-mode table: per set and mode the model's PSNR / SSIM /
+IF-SSIM against TAAU and bicubic, and per mode the render cost saved and the estimated frame ms on
+each device profile (``mnss-kit split --scale S``).  ``--doc-only`` writes it from OUT/modes.json
+without evaluating again::
+
+    python scripts/eval_modes.py runs/ntaau_lr_modes/model.pt --out benchmarks/results/modes --doc-only --doc docs/modes.md
 """
 
 from __future__ import annotations
@@ -33,8 +40,9 @@ sys.path.insert(0, str(REPO))
 
 from mnss_kit.cli import main as cli  # noqa: E402
 from mnss_kit.errors import UserError  # noqa: E402
-from mnss_kit.fileio import atomic_write_json  # noqa: E402
-from mnss_kit.ops.scale import is_integer, parse_scale, scale_label  # noqa: E402
+from mnss_kit.fileio import atomic_write_json, atomic_write_text, portable_path, read_json  # noqa: E402
+from mnss_kit.ops.scale import is_integer, lr_size_for, parse_scale, scale_label  # noqa: E402
+from mnss_kit.split.inputs import DEFAULT_RESOLUTION, DEFAULT_RESOLUTION_TEXT  # noqa: E402
 
 MODES = {"test_x2": (1.3, 1.5, 1.7, 2, 2.5, 3), "unseen_x2": (1.5, 3)}
 
@@ -91,6 +99,122 @@ def run_mode(model: str, config: str, scale, args) -> dict:
     return entry
 
 
+QUALITY = (("psnr", 2), ("ssim", 4), ("if_ssim", 4))  # each cell's metrics, with their decimals
+COMPARED = (("model", "model"), ("taau", "TAAU"), ("bicubic", "bicubic"))  # eval's method names, as the page names them
+
+
+def render_fraction(scale) -> tuple[tuple[int, int], float]:
+    """The LR size of the split's default output size at ``scale`` and LR pixels / HR pixels: the
+    share of the pixels the renderer still shades."""
+    lr = lr_size_for(DEFAULT_RESOLUTION, scale)
+    return lr, lr[0] * lr[1] / (DEFAULT_RESOLUTION[0] * DEFAULT_RESOLUTION[1])
+
+
+def estimated_ms(model: str, scales) -> dict:
+    """Per scale, the estimated frame ms of ``model``'s default placement on each device profile at
+    the default output size (``mnss-kit split --scale S``; None where the model cannot run at it)."""
+    from mnss_kit.bench.run import device_estimates
+    from mnss_kit.model.families import run_at_scale
+    from mnss_kit.split.device import device_names
+    from mnss_kit.split.inputs import load_model
+
+    loaded, _ = load_model(model)
+    estimates = {}
+    for scale in dict.fromkeys(scales):
+        try:
+            run_at_scale(loaded, scale)
+        except UserError:  # a family of integer scales runs at its own only (eval refused the others too)
+            estimates[scale] = None
+            continue
+        estimates[scale] = device_estimates(loaded, tuple(device_names()), DEFAULT_RESOLUTION)
+    return estimates
+
+
+def quality_table(entries: list[dict]) -> list[str]:
+    """One set: per mode PSNR / SSIM / IF-SSIM of the model, TAAU and bicubic, and the model's margin over TAAU."""
+    shown = [(key, name) for key, name in COMPARED if any(key in e.get("methods", {}) for e in entries)]
+    margin = any("model" in e.get("methods", {}) for e in entries)
+    header = ["mode", "frames", *(name for _, name in shown)] + (["model - TAAU"] if margin else [])
+    lines = ["| " + " | ".join(header) + " |", "|---|" + "---:|" * (len(header) - 1)]
+    for e in entries:
+        methods = e.get("methods", {})
+        if not methods:
+            lines.append(f"| {scale_label(e['scale'])} | not evaluated: {e.get('error', '').split(':')[0]} |")
+            continue
+        cells = [scale_label(e["scale"]), str(e.get("frames", ""))]
+        cells += [_scores(methods.get(key, {})) for key, _ in shown]
+        if margin:
+            cells.append(_margins(methods.get("model", {}), methods.get("taau", {})))
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def cost_table(scales, estimates: dict) -> list[str]:
+    """Per mode the LR size, LR / HR pixels and the estimated ms on each device profile."""
+    devices = list(next((e for e in estimates.values() if e), {}))
+    header = ["mode", f"LR size at {DEFAULT_RESOLUTION_TEXT}", "LR / HR pixels"] + [f"{d} ms (est.)" for d in devices]
+    lines = ["| " + " | ".join(header) + " |", "|---|" + "---:|" * (len(header) - 1)]
+    for scale in dict.fromkeys(scales):
+        (lw, lh), fraction = render_fraction(scale)
+        ms = estimates.get(scale) or {}
+        cells = [scale_label(scale), f"{lw}x{lh}", f"{fraction:.3f}"] + [f"{ms[d]:.2f}" if d in ms else "-" for d in devices]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def doc_lines(summary: dict, source: str, estimates: dict) -> list[str]:
+    """The page: what it is from, one quality table per set, one cost table."""
+    model = summary["model"]
+    name = "no model (the baselines)" if model == "none" else f"`{portable_path(model)}`"  # a shipped name stays as it is
+    frames = f"the first {summary['max_frames']} frames of each sequence" if summary.get("max_frames") else "every frame"
+    sets = {}
+    for e in summary["entries"]:
+        sets.setdefault(e["set"], []).append(e)
+    lines = [f"# Quality modes: {name} against TAAU and bicubic", "",
+             f"Generated by `scripts/eval_modes.py` from `{source}`; do not edit by hand.", "",
+             f"Model: {name}.  Reference: `{summary['reference']}` (`mnss-kit eval --reference`).  Frames: {frames} "
+             "(the frames column counts those each mode was evaluated on).  Each mode is its set rendered at that "
+             "scale (`mnss-kit render --scale S`) and evaluated with `mnss-kit eval --scale S`; the margin is the "
+             "model's over TAAU.  Each cell: PSNR (dB) / SSIM / IF-SSIM.", ""]
+    for set_name, entries in sets.items():
+        lines += [f"## `{set_name}`", "", *quality_table(entries), ""]
+    lines += ["## Cost per mode", "",
+              f"At {DEFAULT_RESOLUTION_TEXT} output: the LR size the renderer shades (round(WxH / S) per axis), its share of "
+              "the output's pixels (the render cost left; 1 minus it is saved), and the estimated frame milliseconds of "
+              "the model's default GPU/NPU placement on each device profile under `mnss_kit/configs/devices/` "
+              "(`mnss-kit split --scale S`): estimates from the profiles, not measurements.  The same in every set.", "",
+              *cost_table([e["scale"] for e in summary["entries"]], estimates), ""]
+    return lines + rounding_note(summary)
+
+
+def rounding_note(summary: dict) -> list[str]:
+    """A line for integer modes that do not divide the output size (x3 at 1280x720), which `mnss-kit split`
+    refuses: their LR size rounds here as a quality mode's does."""
+    odd = [s for s in dict.fromkeys(e["scale"] for e in summary["entries"])
+           if is_integer(s) and any(v % int(s) for v in DEFAULT_RESOLUTION)]
+    if not odd:
+        return []
+    return [f"{', '.join(scale_label(s) for s in odd)}: {DEFAULT_RESOLUTION_TEXT} is not a whole number of LR pixels, so "
+            "the LR size rounds as at a quality mode (`mnss-kit split` asks for a multiple of an integer scale).", ""]
+
+
+def write_doc(summary: dict, path: Path, source: str) -> None:
+    """The quality-mode page for ``summary`` (modes.json) at ``path``; ``source`` names modes.json."""
+    scales = [e["scale"] for e in summary["entries"]]
+    estimates = {} if summary["model"] == "none" else estimated_ms(summary["model"], scales)
+    atomic_write_text(path, "\n".join(doc_lines(summary, source, estimates)))
+    print(f"wrote {portable_path(path)}")
+
+
+def _scores(stats: dict) -> str:
+    """``PSNR / SSIM / IF-SSIM`` of one method (``-`` for a metric it lacks)."""
+    return " / ".join(f"{stats[m]:.{d}f}" if m in stats else "-" for m, d in QUALITY)
+
+
+def _margins(model: dict, taau: dict) -> str:
+    return " / ".join(f"{model[m] - taau[m]:+.{d}f}" if m in model and m in taau else "-" for m, d in QUALITY)
+
+
 def run(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("model", help="checkpoint path, shipped name, or 'none' (the baselines only)")
@@ -104,8 +228,12 @@ def run(argv: list[str] | None = None) -> int:
     parser.add_argument("--reference", default="box", choices=("box", "taa", "4x"), help="eval --reference (default: box)")
     parser.add_argument("--max-frames", type=int, help="evaluate at most N frames of each sequence")
     parser.add_argument("--no-progress", action="store_true")
+    parser.add_argument("--doc", type=Path, metavar="FILE", help="also write the quality-mode table (markdown) to FILE")
+    parser.add_argument("--doc-only", action="store_true", help="write --doc from OUT/modes.json (and the model it names) without evaluating")
     args = parser.parse_args(argv)
     try:
+        if args.doc_only:
+            return write_doc_only(args)
         sets = parse_sets(args.sets)
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
@@ -117,8 +245,20 @@ def run(argv: list[str] | None = None) -> int:
     for e in entries:
         means = "; ".join(f"{name} {m['psnr']:.2f} dB" for name, m in e.get("methods", {}).items() if "psnr" in m)
         print(f"{e['set']} {scale_label(e['scale'])}: {means or e.get('error')}")
+    if args.doc:
+        write_doc(summary, args.doc, portable_path(args.out / "modes.json"))
     failed = [e for e in entries if "error" in e]
     return 1 if failed else 0
+
+
+def write_doc_only(args) -> int:
+    modes = args.out / "modes.json"
+    if not args.doc:
+        raise UserError("--doc-only needs --doc FILE")
+    if not modes.is_file():
+        raise UserError(f"no {portable_path(modes)} yet: run without --doc-only first")
+    write_doc(read_json(modes), args.doc, portable_path(modes))
+    return 0
 
 
 if __name__ == "__main__":

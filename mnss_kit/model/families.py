@@ -38,6 +38,20 @@ def family_of(model_or_config) -> Family:
     return family_named(config.family)
 
 
+def run_at_scale(model, scale, what: str = "--scale") -> None:
+    """Make ``model`` run at ``scale`` (None: its own).  A model that reads the frame key ``scale``
+    (``takes_frame_scale``: its net runs at LR) takes any; others only their own, refused in one line
+    as eval refuses data at another scale (``family.check_data_scale``)."""
+    from .family import check_data_scale
+
+    if scale is None or float(scale) == float(model.scale):
+        return
+    if not getattr(model, "takes_frame_scale", False):
+        check_data_scale(model.config.family, model.scale, scale, what=what)
+    model.config.scale = scale  # the fixed-function costs and a fresh history's size follow the config
+    model.scale = scale
+
+
 def build_model(config):
     """A freshly initialised model of ``config.family`` (float32, CPU)."""
     return family_of(config).build(config)

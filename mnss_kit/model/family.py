@@ -66,16 +66,18 @@ class Family:
         return {"lr": tuple(dict.fromkeys((*REQUIRED_BUFFERS["lr"], *self.lr_inputs))), "hr": ("reference", *self.hr_inputs)}
 
 
-def example_frame(family: Family, h: int, w: int, scale: int, generator=None, still: bool = False) -> dict:
+def example_frame(family: Family, h: int, w: int, scale, generator=None, still: bool = False) -> dict:
     """One random batched frame of ``family``'s inputs at LR size ``h x w`` (torch; tracing and MAC counts).
 
     Images are uniform in [0, 1), motion normal, jitter uniform in [-0.5, 0.5); ``still``: zero
     motion and jitter (drawn from no generator).  ``generator`` None draws from torch's global one."""
     import torch
 
+    from .taau import hr_dims
+
     frame = {}
     for name, channels in family.frame_channels().items():
-        size = (h * scale, w * scale) if name.startswith("hr_") else (h, w)
+        size = hr_dims((h, w), scale) if name.startswith("hr_") else (h, w)
         if name.endswith("motion"):
             frame[name] = torch.zeros(1, channels, *size) if still else torch.randn(1, channels, *size, generator=generator)
         else:
@@ -106,15 +108,16 @@ def check_frame(frame: dict, keys: dict[str, int], scale: int, family: str) -> N
         raise UserError(f"model input 'jitter' has shape {tuple(frame['jitter'].shape)}, expected {(n, 2)}")
 
 
-def check_data_scale(family: str | None, model_scale, data_scale, where: str = "") -> None:
+def check_data_scale(family: str | None, model_scale, data_scale, where: str = "", what: str = "data") -> None:
     """The one-line refusal of data at a scale the model cannot run: a fractional scale for a family
-    of integer scales only (``INTEGER_SCALE_ONLY``, naming why), else any other scale than the model's."""
+    of integer scales only (``INTEGER_SCALE_ONLY``, naming why), else any other scale than the model's.
+    ``what`` names where the scale came from (``data``, or an option such as ``--scale``)."""
     from ..errors import UserError
 
     prefix = f"{where}: " if where else ""
     if not float(data_scale).is_integer() and (family in INTEGER_SCALE_ONLY or family is None):
         reason = INTEGER_SCALE_ONLY.get(family, "its layers are built for an integer scale")
-        raise UserError(f"{prefix}data is x{float(data_scale):g}, a fractional scale, and the {family or 'model'} family "
+        raise UserError(f"{prefix}{what} is x{float(data_scale):g}, a fractional scale, and the {family or 'model'} family "
                         f"takes integer scales only ({reason}); the model is x{model_scale}")
     if data_scale != model_scale:
-        raise UserError(f"{prefix}data is x{data_scale} but the model is x{model_scale}")
+        raise UserError(f"{prefix}{what} is x{data_scale} but the model is x{model_scale}")

@@ -63,6 +63,7 @@ def count_macs(model: nn.Module, lr_size: tuple[int, int] = (8, 8)) -> MacReport
     """Run one frame of ``lr_size`` (h, w) through ``model`` and count its MACs per HR output pixel."""
     from .families import family_of
     from .family import example_frame
+    from .taau import hr_dims
 
     h, w = lr_size
     family = family_of(model)
@@ -70,7 +71,8 @@ def count_macs(model: nn.Module, lr_size: tuple[int, int] = (8, 8)) -> MacReport
     # checkpoints (and so count MACs) between steps keep the random stream they had
     frame = example_frame(family, h, w, model.scale, still=True)
     frame = {k: v.to(next(model.parameters()).device) for k, v in frame.items()}
-    hr_pixels = h * w * model.scale * model.scale
+    hr_h, hr_w = hr_dims((h, w), model.scale)  # h * s, w * s at an integer scale
+    hr_pixels = hr_h * hr_w
     stages = {name: StageCost(placement) for name, _, placement in model.stages()}
     hooks = []
     for name, module in model.named_modules():

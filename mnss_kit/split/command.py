@@ -24,19 +24,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="same as --placement auto")
     parser.add_argument("--resolution", default=DEFAULT_RESOLUTION_TEXT, metavar="WxH",
                         help=f"output (HR) size the estimates are made for (default {DEFAULT_RESOLUTION_TEXT})")
+    parser.add_argument("--scale", metavar="S",
+                        help="the upscaling factor to estimate at: 2, 3, 4 or a quality mode in [1.25, 4] such as 1.5 "
+                             "(default: the model's); the LR size is round(WxH / S) per axis (1280x720 at 1.5: 853x480); "
+                             "a family of integer scales takes only its own")
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the placement as JSON")
 
 
 def run(args: argparse.Namespace) -> int:
     from ..fileio import atomic_write_json, check_output
+    from ..ops.scale import parse_scale
 
+    scale = parse_scale(args.scale, "--scale") if args.scale is not None else None  # one line for 0.5, 1.0, nan, 9
     if args.json:
         check_output(args.json, "file")
 
     from .report import format_text
     from .run import run_split
 
-    plan = run_split(args.model, args.device, args.placement, args.resolution)
+    plan = run_split(args.model, args.device, args.placement, args.resolution, scale)
     print(format_text(plan))
     if args.json:
         atomic_write_json(args.json, plan.to_dict())

@@ -33,7 +33,9 @@ from torch.utils._python_dispatch import TorchDispatchMode
 from ..model.families import family_of
 from ..model.family import example_frame
 from ..model.macs import count_macs
+from ..model.taau import hr_dims
 from ..ops.npu_ops import NPU_OPS
+from ..ops.scale import Scale, lr_size_for
 
 # ATen op -> TFLite builtin
 TFLITE_OPS = {
@@ -79,16 +81,15 @@ class TensorInfo:
     channels: int
     traced_shape: tuple[int, ...]
 
-    def shape_nhwc(self, hr_size: tuple[int, int], scale: int) -> tuple[int, ...]:
-        """NHWC shape at output size ``hr_size`` (width, height); LR sizes round up."""
+    def shape_nhwc(self, hr_size: tuple[int, int], scale: Scale) -> tuple[int, ...]:
+        """NHWC shape at output size ``hr_size`` (width, height); the LR size is the render size of
+        ``hr_size`` (``ops.scale.lr_size_for``: ``hr / s`` for a multiple of an integer scale)."""
         if self.grid == "other":
             return self.traced_shape
-        w, h = hr_size
-        if self.grid == "lr":
-            w, h = -(-w // scale), -(-h // scale)
+        w, h = lr_size_for(hr_size, scale) if self.grid == "lr" else hr_size
         return (1, h, w, self.channels)
 
-    def elements(self, hr_size: tuple[int, int], scale: int) -> int:
+    def elements(self, hr_size: tuple[int, int], scale: Scale) -> int:
         n = 1
         for d in self.shape_nhwc(hr_size, scale):
             n *= d
@@ -129,7 +130,7 @@ class Edge:
 
 @dataclass
 class ModelFlow:
-    scale: int
+    scale: Scale  # the scale traced at (a quality mode such as 1.5 for a family that takes any)
     stages: list[StageFlow]
     edges: list[Edge]
     family: str = ""  # the model's family (``model.families.FAMILIES``): its placement modes
@@ -155,10 +156,10 @@ def trace_model(model: nn.Module, lr_size: tuple[int, int] = (8, 12)) -> ModelFl
     """Run one frame of LR size ``lr_size`` (h, w) through ``model`` and record every stage.
 
     ``model`` follows docs/architecture.md: ``stages()``, ``initial_state(frame)``,
-    ``model(frame, state) -> (output, aux, state)``, ``scale``.
+    ``model(frame, state) -> (output, aux, state)``, ``scale`` (any, for a family that takes fractional ones).
     """
     h, w = lr_size
-    scale = int(model.scale)
+    scale = model.scale
     frame = example_frame(family_of(model), h, w, scale, torch.Generator().manual_seed(0))
     state = model.initial_state(frame)
     tracer = _Tracer(list(model.stages()), (h, w), scale)
@@ -204,10 +205,10 @@ class _Tracer:
     by glue is traced back through it to the stage outputs, frame buffers or state it came from.
     """
 
-    def __init__(self, stages, lr_hw: tuple[int, int], scale: int):
+    def __init__(self, stages, lr_hw: tuple[int, int], scale: Scale):
         self.stages = stages
         self.scale = scale
-        self.lr_hw, self.hr_hw = lr_hw, (lr_hw[0] * scale, lr_hw[1] * scale)
+        self.lr_hw, self.hr_hw = lr_hw, hr_dims(lr_hw, scale)
         self.recorder = _Recorder()
         self.bound: dict[str, dict] = {}  # stage -> {input name: value}
         self.results: dict[str, tuple] = {}  # stage -> outputs

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..ops.scale import Scale
 from .dataflow import StageFlow
 from .device import DeviceProfile
 
@@ -50,7 +51,7 @@ class StageCostEstimate:
         }
 
 
-def stage_bytes(stage: StageFlow, processor: str, hr_size: tuple[int, int], scale: int) -> tuple[float, float]:
+def stage_bytes(stage: StageFlow, processor: str, hr_size: tuple[int, int], scale: Scale) -> tuple[float, float]:
     """(bytes read, bytes written) per frame by ``stage`` on ``processor`` at output ``hr_size`` (w, h)."""
     size = BYTES_PER_ELEMENT[processor]
     inputs = sum(t.elements(hr_size, scale) for t in stage.inputs)
@@ -60,7 +61,7 @@ def stage_bytes(stage: StageFlow, processor: str, hr_size: tuple[int, int], scal
 
 
 def estimate_stage(
-    stage: StageFlow, processor: str, device: DeviceProfile, hr_size: tuple[int, int], scale: int
+    stage: StageFlow, processor: str, device: DeviceProfile, hr_size: tuple[int, int], scale: Scale
 ) -> StageCostEstimate:
     """Roofline estimate of ``stage`` on ``processor`` ("gpu" or "npu") of ``device``."""
     macs = stage.macs_per_pixel * hr_size[0] * hr_size[1]

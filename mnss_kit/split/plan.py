@@ -23,6 +23,7 @@ from collections import Counter
 from dataclasses import asdict, dataclass, field
 
 from ..model.families import GENERIC_PLACEMENTS, family_named, placement_modes
+from ..ops.scale import Scale, lr_size_for
 from .dataflow import NOTES, ModelFlow, StageFlow, npu_graph_refusal, trace_model
 from .device import DeviceProfile
 from .estimate import ESTIMATE_LABEL, StageCostEstimate, estimate_stage, handoff_ms
@@ -89,7 +90,8 @@ class Placement:
     soc: str
     mode: str
     resolution: list[int]  # output (HR) width, height
-    scale: int
+    scale: Scale
+    lr_size: list[int]  # render (LR) width, height: ops.scale.lr_size_for(resolution, scale)
     stages: list[StagePlacement]
     boundary: list[BoundaryTensor]
     handoffs: list[Handoff]
@@ -274,7 +276,8 @@ class _Planner:
             notes.append(f"requested on the NPU but not accepted there: {', '.join(missed)} (run on the GPU)")
         return Placement(
             model=model_name, device=self.device.name, soc=self.device.soc, mode=mode,
-            resolution=list(self.resolution), scale=self.flow.scale, stages=stages, boundary=boundary,
+            resolution=list(self.resolution), scale=self.flow.scale,
+            lr_size=list(lr_size_for(self.resolution, self.flow.scale)), stages=stages, boundary=boundary,
             handoffs=handoffs, estimated_stage_ms=stage_ms, estimated_transfer_ms=transfer_ms,
             estimated_frame_ms=stage_ms + transfer_ms, device_has_npu=self.device.has_npu, notes=notes,
         )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..ops.scale import scale_label
 from .plan import Placement
 
 MB = 1e6
@@ -59,9 +60,9 @@ def gpu_op_rows(plan: Placement) -> tuple[list[str], list[list[str]]]:
 
 def headline(plan: Placement) -> str:
     w, h = plan.resolution
-    lr = f"{-(-w // plan.scale)}x{-(-h // plan.scale)}"
+    lw, lh = plan.lr_size
     return (f"{plan.model} on {plan.device} ({plan.soc}), placement {plan.mode}, output {w}x{h} "
-            f"(x{plan.scale} from {lr})")
+            f"({scale_label(plan.scale)} from {lw}x{lh})")
 
 
 def format_text(plan: Placement) -> str:

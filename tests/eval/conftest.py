@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib.util
+
 import numpy as np
 import pytest
 import torch
@@ -9,6 +11,16 @@ import torch
 from mnss_kit.dataset.format import FORMAT_NAME, FORMAT_VERSION, FrameMeta, SequenceMeta, write_buffer, write_meta
 from mnss_kit.dataset.synthetic import write_synthetic_sequence
 from mnss_kit.ops.jitter import jitter_sequence
+
+
+@pytest.fixture(scope="module")
+def script(request):
+    """The script at the test module's ``SCRIPT`` path, loaded as a module (scripts/ is no package)."""
+    path = request.module.SCRIPT
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def _pattern(x: np.ndarray, y: np.ndarray) -> np.ndarray:

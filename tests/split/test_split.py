@@ -217,3 +217,48 @@ def test_split_model_api_and_cli(tmp_path, capsys):
     assert "ESTIMATES" in capsys.readouterr().out
     assert main(["split", "mnss_x2_tiny", "--device", "snapdragon_8_gen_1", "--resolution", "720p"]) == 2
     assert main(["split", "mnss_x2_tiny", "--device", "no_such_phone"]) == 2
+
+
+@pytest.fixture(scope="module")
+def modes():
+    """ntaau_lr_x2 (a family that takes any scale) placed at the quality mode 1.5 and at its own 2."""
+    from mnss_kit.split.run import run_split
+
+    return {s: run_split("ntaau_lr_x2", "snapdragon_8_gen_1", scale=s) for s in (1.5, 2)}
+
+
+def test_split_at_a_quality_mode_uses_the_rounded_lr_size(modes):
+    lr_w, lr_h = round(1280 / 1.5), round(720 / 1.5)  # 853 x 480, as ops.scale.lr_size_for rounds
+    plan = modes[1.5]
+    assert plan.scale == 1.5 and plan.lr_size == [lr_w, lr_h] and plan.resolution == [1280, 720]
+    assert plan.boundary, "the steer stage's LR tensors cross to the NPU and back"
+    for tensor in plan.boundary:
+        channels = tensor.shape[3]
+        assert tensor.shape == [1, lr_h, lr_w, channels]
+        assert tensor.bytes_per_frame == lr_w * lr_h * channels
+    assert "x1.5 from 853x480" in format_text(plan)
+
+
+def test_split_costs_less_at_a_larger_scale(modes):
+    assert modes[2].lr_size == [640, 360]
+    assert modes[2].estimated_frame_ms < modes[1.5].estimated_frame_ms
+
+
+def test_split_cli_scale_in_json(tmp_path):
+    out = tmp_path / "plan.json"
+    assert main(["split", "ntaau_lr_x2", "--device", "snapdragon_8_gen_1", "--scale", "1.5", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["scale"] == 1.5 and data["lr_size"] == [853, 480]
+
+
+def test_split_refuses_a_fractional_scale_for_an_integer_family(capsys):
+    assert main(["split", "mnss_x2", "--device", "snapdragon_8_gen_1", "--scale", "1.5"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "the mnss family takes integer scales only" in err and "\n" not in err
+
+
+@pytest.mark.parametrize("value", ["0.5", "1.0", "nan", "9"])
+def test_split_refuses_bad_scales(value, capsys):
+    assert main(["split", "ntaau_lr_x2", "--device", "snapdragon_8_gen_1", "--scale", value]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--scale" in err and "\n" not in err and "Traceback" not in err
