@@ -35,7 +35,7 @@ ABLATIONS = {
               "history <= taau": "cap"},
     "ntaau_lr": {"as trained": None, "history gain": (0,), "sample gain": (1,), "clamp box": (2,),
                  "fallback": (3,), "display filter": (4, 5), "history >= taau": "floor",
-                 "history <= taau": "cap"},
+                 "history <= taau": "cap", "filter sharpens only": "sharpen"},
 }
 
 
@@ -46,6 +46,8 @@ def held(raw, change):
         raw[:, 0] = raw[:, 0].clamp(min=0.0)
     elif change == "cap":
         raw[:, 0] = raw[:, 0].clamp(max=0.0)
+    elif change == "sharpen":  # ntaau_lr's display filter weights (4, 5) at most 0: no blur
+        raw[:, 4:6] = raw[:, 4:6].clamp(max=0.0)
     elif change is not None:
         raw[:, list(change)] = 0.0
     return raw
