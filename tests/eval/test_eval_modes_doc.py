@@ -18,8 +18,8 @@ def scores(psnr: float, ssim: float, if_ssim: float) -> dict:
     return {"psnr": psnr, "ssim": ssim, "if_ssim": if_ssim}
 
 
-def entry(tmp_path: Path, scale, model: float, taau: float, bicubic: float) -> dict:
-    return {"set": "test_x2", "scale": scale, "data": str(tmp_path / f"data_x{scale}"), "json": str(tmp_path / "e.json"),
+def entry(tmp_path: Path, scale, model: float, taau: float, bicubic: float, variant: str = "jittered") -> dict:
+    return {"set": "test_x2", "scale": scale, "variant": variant, "data": str(tmp_path / f"data_x{scale}"), "json": str(tmp_path / "e.json"),
             "frames": 48, "methods": {"model": scores(model, 0.95, 0.97), "model_nohist": scores(20.0, 0.5, 0.5),
                                       "taau": scores(taau, 0.94, 0.975), "bicubic": scores(bicubic, 0.90, 0.93)}}
 
@@ -29,7 +29,8 @@ def page(script, tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     summary = {"model": "ntaau_lr_x2", "reference": "box", "max_frames": 24,
-               "entries": [entry(tmp_path, 1.5, 33.0, 32.5, 30.0), entry(tmp_path, 2, 31.0, 30.0, 28.0)]}
+               "entries": [entry(tmp_path, 1.5, 33.0, 32.5, 30.0), entry(tmp_path, 2, 31.0, 30.0, 28.0),
+                           entry(tmp_path, 1.5, 29.0, 29.5, 28.5, "no_jitter_ldr8_depth8")]}
     (out / "modes.json").write_text(json.dumps(summary))
     doc = tmp_path / "modes.md"
     assert script.run(["ntaau_lr_x2", "--out", str(out), "--doc-only", "--doc", str(doc)]) == 0
@@ -52,6 +53,14 @@ def test_quality_rows_and_margin_over_taau(page):
                                       "30.00 / 0.9000 / 0.9300", "+0.50 / +0.0100 / -0.0050"]
     assert row(page, "x2 | 48")[5] == "+1.00 / +0.0100 / -0.0050"
     assert "20.00" not in page, "the model without history is not one of the compared methods"
+
+
+def test_one_table_per_set_and_variant(page):
+    jittered = page.index("## `test_x2`, jittered")
+    plain = page.index("## `test_x2`, no jitter, 8-bit colour and depth")
+    assert jittered < plain
+    assert "29.00 / 0.9500 / 0.9700" in page[plain:] and "29.00 / 0.9500" not in page[jittered:plain]
+    assert row(page[plain:], "x1.5 | 48")[5].startswith("-0.50")
 
 
 def test_cost_rows_render_fraction_and_estimates(page):

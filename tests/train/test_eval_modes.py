@@ -47,13 +47,17 @@ def test_modes_of_the_baselines_render_evaluate_and_write_json(tiny_config, tmp_
             "--sets", f"{tiny_config}=1.5,2", "--no-progress"]
     assert script.run(argv) == 0
     summary = json.loads((tmp_path / "out" / "modes.json").read_text())
-    assert [(e["set"], e["scale"]) for e in summary["entries"]] == [("tiny_modes", 1.5), ("tiny_modes", 2)]
+    assert [(e["set"], e["scale"], e["variant"]) for e in summary["entries"]] == [
+        ("tiny_modes", 1.5, "jittered"), ("tiny_modes", 2, "jittered"),
+        ("tiny_modes", 1.5, "no_jitter_ldr8_depth8"), ("tiny_modes", 2, "no_jitter_ldr8_depth8")]
     for entry in summary["entries"]:
         assert "bicubic" in entry["methods"] and entry["methods"]["bicubic"]["psnr"] > 10
         assert Path(entry["json"]).is_file()
         meta = json.loads(next(Path(entry["data"]).glob("*/meta.json")).read_text())
         assert meta["scale"] == entry["scale"]
-        assert meta["jitter_pattern"] == ("halton" if entry["scale"] == 1.5 else "grid")
+        jittered = entry["variant"] == "jittered"
+        assert meta["jitter_pattern"] == (("halton" if entry["scale"] == 1.5 else "grid") if jittered else "center")
+    assert len({e["json"] for e in summary["entries"]}) == 4, "one eval JSON per mode and variant"
     # a second run reuses the renders and evaluates again
     assert script.run(argv) == 0
 
@@ -69,7 +73,7 @@ def test_a_frame_scale_checkpoint_runs_at_every_mode(tiny_config, tmp_path, monk
     script = _script()
     data = tmp_path / "data"
     assert script.run(["none", "--out", str(tmp_path / "base"), "--data-root", str(data),
-                       "--sets", f"{tiny_config}=1.5,2", "--no-progress", "--max-frames", "2"]) == 0
+                       "--sets", f"{tiny_config}=1.5,2", "--no-progress", "--max-frames", "2", "--variants", "jittered"]) == 0
     path = tmp_path / "experiment.yaml"
     path.write_text(yaml.safe_dump({"schema": 1, "model": {"family": "scaled", "scale": 2}, "train": {
         "train_data": [str(data / "tiny_modes_x1.5"), str(data / "tiny_modes_x2")], "window": 2, "batch_size": 1,
@@ -78,7 +82,7 @@ def test_a_frame_scale_checkpoint_runs_at_every_mode(tiny_config, tmp_path, monk
     ckpt = train(load_experiment(path)[0], tmp_path / "run", progress=False)
     out = tmp_path / "out"
     assert script.run([str(ckpt), "--out", str(out), "--data-root", str(data), "--sets", f"{tiny_config}=1.5,2",
-                       "--no-progress", "--max-frames", "2"]) == 0
+                       "--no-progress", "--max-frames", "2", "--variants", "jittered"]) == 0
     entries = json.loads((out / "modes.json").read_text())["entries"]
     assert [e["scale"] for e in entries] == [1.5, 2] and all("model" in e["methods"] for e in entries)
     result = json.loads((out / "tiny_modes_x1.5.json").read_text())
