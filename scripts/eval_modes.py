@@ -8,7 +8,8 @@ per-method means of every entry) into OUT.
     python scripts/eval_modes.py none --out /tmp/modes --sets test_x2=1.5,3 --max-frames 24
 
 Each set is rendered by ``--scale`` overrides of its config (``mnss-kit render CONFIG --scale S
---out DATA_ROOT/CONFIG_xS``; an existing directory is reused): the configs give ``lr_size:
+--out DATA_ROOT/CONFIG_xS``; the frames present are kept, so pass the same ``--set frames=N``
+as the first run): the configs give ``lr_size:
 [320, 180]``, and 320x180 times each of these modes is a whole number of HR pixels on both axes
 (416x234, 480x270, 544x306, 640x360, 800x450, 960x540), so every mode's ratio is exactly its
 scale.  The grid jitter pattern exists at 2 and 3 only: a fractional mode renders with Halton
@@ -81,27 +82,21 @@ MODE_VARIANTS = (JITTERED, "no_jitter_ldr8_depth8")
 
 
 def variant_data(config: str, scale, variant: str, args) -> tuple[Path, str | None]:
-    """The directory of ``config`` at ``scale`` in ``variant`` (rendered and rewritten when missing)
-    and an error line when a step failed."""
-    from mnss_kit.dataset.variants import write_variant_dataset
-    from mnss_kit.eval.variant_sets import VARIANTS
+    """The directory of ``config`` at ``scale`` in ``variant`` and an error line when a step failed.
+    The render always runs: it skips the frames present and completes an interrupted one."""
+    from mnss_kit.eval.variant_sets import VARIANTS, rewritten
 
     base = args.data_root / f"{Path(config).stem}_{scale_label(scale)}"
     pattern, applied = (args.jitter, []) if variant == JITTERED else VARIANTS[variant][:2]
     rendered = base if variant == JITTERED else base.with_name(f"{base.name}_{pattern}")
-    if not rendered.exists():
-        render = ["render", config, "--scale", str(scale), "--out", str(rendered),
-                  *render_overrides(scale, pattern, args.set)]
-        if args.no_progress:
-            render.append("--no-progress")
-        if cli(render) != 0:
-            return rendered, f"render failed: mnss-kit {' '.join(render)}"
+    render = ["render", config, "--scale", str(scale), "--out", str(rendered), *render_overrides(scale, pattern, args.set)]
+    if args.no_progress:
+        render.append("--no-progress")
+    if cli(render) != 0:
+        return rendered, f"render failed: mnss-kit {' '.join(render)}"
     if not applied:
         return rendered, None
-    data = base.with_name(f"{base.name}_{variant}")
-    if not data.exists():
-        write_variant_dataset(rendered, data, applied)
-    return data, None
+    return rewritten(rendered, base.with_name(f"{base.name}_{variant}"), list(applied)), None
 
 
 def run_mode(model: str, config: str, scale, variant: str, args) -> dict:

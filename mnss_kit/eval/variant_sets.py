@@ -45,7 +45,6 @@ def variant_set(name: str, config: str, work: Path, frames: int, base: Path | No
     under ``work/<config>/``.  ``base``: the set already rendered with the grid jitter (default:
     render it too).  Renders resume; a rewritten variant is written atomically, and again when
     its source has since gained sequences or frames."""
-    from ..dataset.variants import write_variant_dataset
     from ..render.config import load_render_config
     from ..render.run import render_dataset
 
@@ -56,8 +55,15 @@ def variant_set(name: str, config: str, work: Path, frames: int, base: Path | No
         render_dataset(load_render_config(config, [f"jitter={pattern}", f"frames={frames}"]), source, progress=progress)
     if not applied:
         return source
-    out = root / name
-    if not out.is_dir() or _contents(out) != _contents(source):  # a source that gained sequences or frames
+    return rewritten(source, root / name, applied)
+
+
+def rewritten(source: Path, out: Path, applied: list[str]) -> Path:
+    """``out``: ``source`` rewritten with the data variants ``applied``, written atomically, and again
+    when ``source`` has since gained sequences or frames."""
+    from ..dataset.variants import write_variant_dataset
+
+    if not out.is_dir() or _contents(out) != _contents(source):
         write_variant_dataset(source, out, applied, overwrite=True)
     return out
 
