@@ -1,7 +1,7 @@
 """The still-pixel history floor of the ntaau_lr family (ntaau's ``history_gain_min`` and
 ``still_motion_px``): the history gain after the trust gate is at least ``model.taau.history_floor``.
-Torch against the numpy reference, a model with the floor on through export and the emulator, and
-the shipped checkpoints unchanged by the defaults (0: no floor)."""
+Torch against the numpy reference, a model with the floor on through export and the emulator, a
+model without it (the default, 0) unchanged, and the shipped checkpoints trained with it."""
 
 from __future__ import annotations
 
@@ -64,15 +64,11 @@ def test_the_floored_accumulation_matches_the_numpy_reference(scale):
     assert (steer.history_gain >= floor - 1e-6).all()
 
 
-@pytest.mark.parametrize("name", ["ntaau_lr_x2", "ntaau_lr_x2_small"])
-def test_the_default_config_leaves_the_shipped_models_unchanged(name, monkeypatch):
-    """history_gain_min 0: every output of the shipped checkpoints as without a floor at all (the
-    gain floored at -inf), bit for bit over a few frames."""
-    from mnss_kit.model import checkpoint
-
-    model, _ = checkpoint.load(name)
-    model.eval()
-    assert model.config.history_gain_min == 0.0 and model.config.still_motion_px == 0.0
+def test_without_the_floor_a_model_is_as_it_was():
+    """history_gain_min 0 (the config's default): every output as without a floor at all (the gain
+    floored at -inf), bit for bit over a few frames."""
+    torch.manual_seed(3)
+    model = randomise_convs(build_model(NTAAULRConfig(scale=2))).eval()
 
     def run():
         g, state, outs = torch.Generator().manual_seed(5), None, []
@@ -86,10 +82,23 @@ def test_the_default_config_leaves_the_shipped_models_unchanged(name, monkeypatc
 
     floored = run()
     original = net.steer_from_lr
-    monkeypatch.setattr(net, "steer_from_lr", lambda raw, trust_lr, config, hr_size=None, floor=0.0:
-                        original(raw, trust_lr, config, hr_size, float("-inf")))
-    unfloored = run()
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(net, "steer_from_lr", lambda raw, trust_lr, config, hr_size=None, floor=0.0:
+                      original(raw, trust_lr, config, hr_size, float("-inf")))
+        unfloored = run()
     assert all(torch.equal(a, b) for a, b in zip(floored, unfloored))
+
+
+@pytest.mark.parametrize("name", ["ntaau_lr_x2"])
+def test_the_shipped_models_keep_a_still_history(name):
+    """The shipped ntaau_lr checkpoints are trained with the floor their configs name."""
+    from mnss_kit.model import checkpoint
+    from mnss_kit.train.config import load_experiment
+
+    model, _ = checkpoint.load(name)
+    wanted = load_experiment(name)[0].model
+    assert (model.config.history_gain_min, model.config.still_motion_px) == (wanted.history_gain_min, wanted.still_motion_px)
+    assert model.config.history_gain_min == 1.0
 
 
 # -- the bundle chain ---------------------------------------------------------------------------
