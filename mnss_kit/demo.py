@@ -1,7 +1,7 @@
 """``mnss-kit demo``: the whole chain on a tiny built-in scene set, in a few minutes.
 
 Renders a small training set and a held-out set, trains a tiny model of the default family
-(``ntaau_x2_tiny``: a small net steering TAAU) for a fixed time, evaluates it and the shipped
+(``ntaau_lr_x2_tiny``: a small net at LR steering TAAU) for a fixed time, evaluates it and the shipped
 default model against bicubic and TAAU on the held-out frames, quantizes the NPU stage to int8
 (calibrated on the training set, compared with fp32 on the held-out set), exports a bundle whose
 golden frames come from the held-out set, checks that the emulator reproduces them and replays
@@ -24,7 +24,7 @@ HELP = "run the whole pipeline on a tiny built-in scene set (render, train, eval
 
 log = logging.getLogger(__name__)
 
-MODEL_CONFIG = "ntaau_x2_tiny"  # the default family's smallest config
+MODEL_CONFIG = "ntaau_lr_x2_tiny"  # the default family's smallest config
 SHIPPED_MODEL = DEFAULT_MODEL  # the default model, trained by the toolkit on the full training set
 TRAIN_DATA = "tiny"
 TEST_DATA = "tiny_test"
@@ -162,7 +162,7 @@ def write_report(out: Path, timings: dict[str, float]) -> Path:
 
     rows = method_rows(out)
     lines = ["# mnss-kit demo report", "",
-             f"`{MODEL_CONFIG}`, a tiny model of the default family (a small net steering TAAU), trained for a few "
+             f"`{MODEL_CONFIG}`, a tiny model of the default family (a small net at LR steering TAAU), trained for a few "
              f"minutes on a tiny rendered set (render config `{TRAIN_DATA}`), then quantized to int8, exported as a bundle and "
              f"emulated; beside it the shipped default model `{SHIPPED_MODEL}` (trained by the toolkit on its full "
              "training set), bicubic and TAAU.  The tiny model's numbers show that the chain works, not what a full "

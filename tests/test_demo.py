@@ -43,8 +43,8 @@ def table_rows(report):
 
 def test_demo_trains_a_tiny_model_of_the_default_family():
     tiny, default = load_experiment(demo.MODEL_CONFIG)[0], load_experiment(demo.SHIPPED_MODEL)[0]
-    assert tiny.model.family == default.model.family == "ntaau"
-    assert tiny.model.width < load_experiment("ntaau_x2_fast")[0].model.width
+    assert tiny.model.family == default.model.family == "ntaau_lr"
+    assert tiny.model.width < load_experiment("ntaau_lr_x2_small")[0].model.width
 
 
 def test_report_shows_the_shipped_model_beside_the_tiny_one_and_the_baselines(tmp_path):
@@ -105,7 +105,7 @@ def test_the_chain_measures_int8_and_the_emulator_on_the_held_out_set(tmp_path, 
     demo.run(argparse.Namespace(out=str(tmp_path), minutes=2.0, no_progress=True))
     argv = {call[0]: call for call in recorded.calls}
     test_data, train_data = str(tmp_path / "data" / "test"), str(tmp_path / "data" / "train")
-    assert argv["train"][1] == "ntaau_x2_tiny"
+    assert argv["train"][1] == "ntaau_lr_x2_tiny"
     assert argv["quantize"][argv["quantize"].index("--data") + 1] == train_data  # calibration
     assert argv["quantize"][argv["quantize"].index("--eval-data") + 1] == test_data  # the fp32-vs-int8 table
     assert argv["export"][argv["export"].index("--data") + 1] == test_data  # golden frames from held-out frames

@@ -17,9 +17,10 @@ def _number(text: str) -> float:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from .run import DEFAULT_HOLD_BACK, DEFAULT_MINUTES, DEFAULT_WARMUP
+    from ..zoo import DEFAULT_MODEL
 
     parser.add_argument("capture", type=Path, help="a dataset (mnss-kit data import output, or the dataset format)")
-    parser.add_argument("--model", default="ntaau_x2", help="the model to start from: a shipped name or a checkpoint (default: ntaau_x2)")
+    parser.add_argument("--model", default=DEFAULT_MODEL, help=f"the model to start from: a shipped name or a checkpoint (default: {DEFAULT_MODEL})")
     parser.add_argument("--out", type=Path, default=None, help="run directory (default: runs/finetune_<capture name>); rerun to resume")
     parser.add_argument("--minutes", type=_number, default=DEFAULT_MINUTES, help=f"training time budget (default {DEFAULT_MINUTES:g})")
     parser.add_argument("--hold-back", type=_number, default=DEFAULT_HOLD_BACK,
