@@ -106,8 +106,9 @@ def models_by_scale(request: BenchRequest) -> dict[int, list[str]]:
 def scale_overrides(scale: int | float) -> list[str]:
     """Render overrides that make a built-in x2 data config ``scale``: Halton jitter beyond x3 and at
     a fractional scale (the grid pattern exists for x2 and x3)."""
-    halton = scale > 3 or not float(scale).is_integer()
-    return [] if scale == 2 else [f"scale={scale}", *(["jitter=halton"] if halton else [])]
+    from ..ops.jitter import GRID_SCALES
+
+    return [] if scale == 2 else [f"scale={scale}", *(["jitter=halton"] if scale not in GRID_SCALES else [])]
 
 
 def held_out_config(quick: bool, scale: int) -> tuple[str, list[str]]:
