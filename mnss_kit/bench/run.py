@@ -129,10 +129,10 @@ def bench_scale(request: BenchRequest) -> int | None:
     if request.data is None:
         return request.scale
     from ..dataset import format as fmt
+    from ..ops.scale import check_data_scale_is
 
     data_scale = fmt.read_meta(fmt.find_sequences(request.data)[0]).scale
-    if request.scale and request.scale != data_scale:
-        raise UserError(f"--scale {request.scale} but {request.data} is x{data_scale}")
+    check_data_scale_is(data_scale, request.scale, request.data)
     return data_scale
 
 
