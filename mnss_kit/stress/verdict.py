@@ -79,7 +79,8 @@ def _recovery_cell(stats: dict) -> str:
 
 
 def scale_heading(doc: dict) -> str:
-    """`` (x1.5)`` for a document that records its scale, else nothing (documents from before it did)."""
+    """`` (x1.5)`` for a document whose settings record its scale (stress, size), else nothing
+    (documents from before they did)."""
     from ..ops.scale import scale_label
 
     scale = doc.get("settings", {}).get("scale")
