@@ -106,8 +106,9 @@ def models_by_scale(request: BenchRequest) -> dict[int, list[str]]:
 def scale_overrides(scale: int | float) -> list[str]:
     """Render overrides that make a built-in x2 data config ``scale``: Halton jitter beyond x3 and at
     a fractional scale (the grid pattern exists for x2 and x3)."""
-    halton = scale > 3 or not float(scale).is_integer()
-    return [] if scale == 2 else [f"scale={scale}", *(["jitter=halton"] if halton else [])]
+    from ..ops.jitter import GRID_SCALES
+
+    return [] if scale == 2 else [f"scale={scale}", *(["jitter=halton"] if scale not in GRID_SCALES else [])]
 
 
 def held_out_config(quick: bool, scale: int) -> tuple[str, list[str]]:
@@ -128,10 +129,10 @@ def bench_scale(request: BenchRequest) -> int | None:
     if request.data is None:
         return request.scale
     from ..dataset import format as fmt
+    from ..ops.scale import check_data_scale_is
 
     data_scale = fmt.read_meta(fmt.find_sequences(request.data)[0]).scale
-    if request.scale and request.scale != data_scale:
-        raise UserError(f"--scale {request.scale} but {request.data} is x{data_scale}")
+    check_data_scale_is(data_scale, request.scale, request.data)
     return data_scale
 
 

@@ -149,6 +149,9 @@ DEFAULT_BASELINES = ("bicubic", "taau")
 def baseline_methods(scale: int | float, names=None) -> dict:
     """``{name: per-frame callable}`` for the named baselines at ``scale``; by default bicubic and
     taau, at a fractional scale those of them that take it (``FRACTIONAL_BASELINES``)."""
-    if names is None:
-        names = DEFAULT_BASELINES if float(scale).is_integer() else [n for n in DEFAULT_BASELINES if n in FRACTIONAL_BASELINES]
-    return {name: BASELINES[name](scale) for name in names}
+    return {name: BASELINES[name](scale) for name in (baselines_at(scale) if names is None else names)}
+
+
+def baselines_at(scale: int | float, names=DEFAULT_BASELINES) -> list[str]:
+    """Those of ``names`` that take ``scale``: all at an integer scale, ``FRACTIONAL_BASELINES`` at a fractional one."""
+    return list(names) if float(scale).is_integer() else [n for n in names if n in FRACTIONAL_BASELINES]

@@ -15,16 +15,13 @@ def evaluate_model(model_name: str, data_dir, methods: list[str] | None = None, 
     :func:`.loop.evaluate`."""
     from ..dataset import format as fmt
     from ..errors import UserError
-    from ..ops.scale import parse_scale
+    from ..ops.scale import check_data_scale_is, parse_scale
     from .baselines import BASELINES, baseline_methods
     from .methods import default_methods
     from .loop import evaluate
 
-    wanted_scale = None if scale is None else parse_scale(scale, "--scale")
-    if wanted_scale is not None:
-        data_scale = fmt.read_meta(fmt.find_sequences(data_dir)[0]).scale
-        if data_scale != wanted_scale:
-            raise UserError(f"{data_dir}: data is x{data_scale} but --scale is {wanted_scale}")
+    if scale is not None:
+        check_data_scale_is(fmt.read_meta(fmt.find_sequences(data_dir)[0]).scale, parse_scale(scale, "--scale"), data_dir)
     model, info = load_model(model_name, data_dir)
     scale = info["scale"] if info else fmt.read_meta(fmt.find_sequences(data_dir)[0]).scale
     available = default_methods(model, scale)

@@ -38,16 +38,16 @@ def family_of(model_or_config) -> Family:
     return family_named(config.family)
 
 
-def run_at_scale(model, scale, what: str = "--scale") -> None:
+def run_at_scale(model, scale, what: str = "--scale", where: str = "") -> None:
     """Make ``model`` run at ``scale`` (None: its own).  A model that reads the frame key ``scale``
     (``takes_frame_scale``: its net runs at LR) takes any; others only their own, refused in one line
-    as eval refuses data at another scale (``family.check_data_scale``)."""
+    as eval refuses data at another scale (``family.check_data_scale``; ``where`` names the model there)."""
     from .family import check_data_scale
 
     if scale is None or float(scale) == float(model.scale):
         return
     if not getattr(model, "takes_frame_scale", False):
-        check_data_scale(model.config.family, model.scale, scale, what=what)
+        check_data_scale(model.config.family, model.scale, scale, where=where, what=what)
     model.config.scale = scale  # the fixed-function costs and a fresh history's size follow the config
     model.scale = scale
 

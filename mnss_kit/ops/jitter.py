@@ -35,6 +35,7 @@ from ..errors import UserError
 from . import scale as scales
 
 PATTERNS = ("grid", "halton", "center")
+GRID_SCALES = (2, 3)  # the scales the grid pattern has an order for
 # Earlier spellings of a pattern -> its name.  Data configs, ``--set jitter=...`` and datasets already
 # on disk may give them; they mean the same offsets.  What is written (meta.json, bundles) uses PATTERNS.
 RENAMED_PATTERNS = {"mnss": "grid"}
@@ -139,7 +140,7 @@ def _check(pattern: str, scale: int | float) -> tuple[str, int | float]:
         pass
     elif not isinstance(scale, (int, np.integer)) or isinstance(scale, bool) or scale < 2:
         raise UserError(f"scale must be an integer >= 2 or a fraction in [{scales.MIN_SCALE}, {scales.MAX_SCALE}], got {scale!r}")
-    if pattern == "grid" and scale not in (2, 3):
+    if pattern == "grid" and scale not in GRID_SCALES:
         raise UserError(f"the grid jitter pattern exists for scales 2 and 3, not {scale}"
                         + (": use jitter: halton (or center) at a fractional scale" if isinstance(scale, float) else ""))
     return pattern, scale

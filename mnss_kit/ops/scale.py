@@ -91,6 +91,12 @@ def parse_scale(value, what: str = "scale") -> Scale:
     return number
 
 
+def check_data_scale_is(data_scale: Scale, wanted: Scale | None, where) -> None:
+    """The one-line refusal of data (at ``where``) whose scale is not the ``--scale`` asked for (None: any)."""
+    if wanted is not None and data_scale != wanted:
+        raise UserError(f"{where}: data is x{data_scale} but --scale is {wanted}")
+
+
 def is_integer(scale: Scale) -> bool:
     """An integer scale: every HR pixel belongs to one LR pixel's ``s x s`` tile."""
     return isinstance(scale, int) or float(scale).is_integer()

@@ -12,7 +12,9 @@ HELP = "one HTML page from the bench, stress and size JSON: a verdict per scale,
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bench", type=Path, help="bench JSON of `mnss-kit bench` (its charts are drawn from it)")
-    parser.add_argument("--stress", type=Path, help="stress JSON of `mnss-kit stress` (its crops/ are read beside it)")
+    parser.add_argument("--stress", type=Path, action="append", metavar="FILE",
+                        help="stress JSON of `mnss-kit stress` (its crops/ are read beside it); repeatable, e.g. one "
+                             "per scale")
     parser.add_argument("--size", type=Path, action="append", metavar="FILE",
                         help="size.json of `mnss-kit size`; repeatable, one per scene")
     parser.add_argument("--budget-ms", type=float, nargs="+", default=list(DEFAULT_BUDGETS_MS), metavar="MS",

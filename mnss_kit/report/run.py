@@ -3,10 +3,12 @@
 
 Sections: per scale, a verdict (the smallest model that beats TAAU, the best within each device
 budget), the bench records and charts (device milliseconds labelled as estimates, once, with why
-fp32 and int8 share them); then one table per stress scenario with its per-frame PSNR plot, its
-best and worst methods and its image crops (reference, every method and their error maps, when
-``mnss-kit stress`` wrote crops), and the cases the stress suite does not cover; then one size
-ladder per ``mnss-kit size`` run, with its chart and the rung it chose.  A section whose input was
+fp32 and int8 share them); then per ``mnss-kit stress`` run one table per scenario with its
+per-frame PSNR plot, its best and worst methods and its image crops (reference, every method and
+their error maps, when ``mnss-kit stress`` wrote crops), and the cases the stress suite does not
+cover; then one size ladder per ``mnss-kit size`` run, with its chart and the rung it chose.  Every
+bench section, stress run and size ladder is headed by its scale (x2, x1.5), so runs at several
+scales are told apart.  A section whose input was
 not given says so and names the command that makes it.
 
 Every chart is drawn here from the JSON it is given, as SVG inlined in the page: its text stays
@@ -42,20 +44,21 @@ MISSING = {"bench": ("--bench", "`mnss-kit bench` (writes runs/bench/bench.json)
            "size": ("--size", "`mnss-kit size --data DIR --target within:0.3` (writes runs/size/size.json)")}
 
 
-def build_report(bench: Path | None, stress: Path | None, out: Path, overwrite: bool = False,
+def build_report(bench: Path | None, stresses: list[Path] | None, out: Path, overwrite: bool = False,
                  sizes: list[Path] | None = None, budgets_ms: tuple[float, ...] = DEFAULT_BUDGETS_MS) -> Path:
     """Write ``out/index.html`` and its charts from the bench, stress and size JSON; returns the page."""
-    docs = {"bench": _load(bench, BENCH_FORMAT, "a bench file"), "stress": _load(stress, STRESS_FORMAT, "a stress file")}
+    bench_doc = _load(bench, BENCH_FORMAT, "a bench file")
+    stress_docs = [(p, _load(p, STRESS_FORMAT, "a stress file")) for p in stresses or []]
     size_docs = [(p, _load(p, SIZE_FORMAT, "a size file")) for p in sizes or []]
     with atomic_directory(out, overwrite=overwrite) as staging:
         body = []
-        if docs["bench"] is not None:
-            body += bench_sections(docs["bench"], staging, budgets_ms)
+        if bench_doc is not None:
+            body += bench_sections(bench_doc, staging, budgets_ms)
         else:
             body += missing_section("Bench", "bench")
-        if docs["stress"] is not None:
-            body += stress_section(docs["stress"], stress.parent, staging)
-        else:
+        for i, (path, doc) in enumerate(stress_docs):
+            body += stress_section(doc, path.parent, staging, f"stress/{i}")
+        if not stress_docs:
             body += missing_section("Stress scenarios", "stress")
         for i, (_, doc) in enumerate(size_docs):
             body += size_section(doc, staging / "size" / str(i), f"size/{i}")
@@ -218,15 +221,18 @@ def _best_within(judged: list[dict], device: str, budget: float) -> str:
     return f"within {budget:g} ms the best is {_label(r)}, {r['psnr']:.2f} dB at {ms:.2f} ms"
 
 
-def stress_section(doc: dict, root: Path, staging: Path) -> list[str]:
-    from ..stress.verdict import RANKED, losses_to, verdicts
+def stress_section(doc: dict, root: Path, staging: Path, rel: str = "stress/0") -> list[str]:
+    """One ``mnss-kit stress`` run, headed by its scale; its plots and the crops of ``root/crops``
+    go under ``staging/rel`` and its anchors start with ``rel``, so two runs on one page stay apart."""
+    from ..stress.verdict import RANKED, losses_to, scale_heading, verdicts
 
     from ..stress.charts import write_plots
 
-    plots = write_plots(doc, staging / "stress" / "plots", ".svg")
-    crops = _copy_images(root / "crops", staging, "stress/crops")
+    prefix = rel.replace("/", "-")
+    plots = write_plots(doc, staging / rel / "plots", ".svg")
+    crops = _copy_images(root / "crops", staging, f"{rel}/crops")
     ranks = verdicts(doc)
-    out = ["<h2>Stress scenarios</h2>",
+    out = [f"<h2 id={_e(prefix)}>Stress scenarios{_e(scale_heading(doc))}</h2>",
            f"<p class=note>Frames to recover: until PSNR is within {_e(doc['settings']['recovery_tolerance_db'])} dB "
            "of steady state after each camera cut or pan end.</p>"]
     header = ["method", "PSNR", "SSIM", "IF-SSIM", "temporal error", "disocclusion PSNR", "frames to recover"]
@@ -237,9 +243,9 @@ def stress_section(doc: dict, root: Path, staging: Path) -> list[str]:
                 for m, s in entry["methods"].items()]
         verdict = "; ".join(f"{label}: best {_e(b)}, worst {_e(w)}" for _, label, _ in RANKED
                             if label in ranks[name] for b, w in [ranks[name][label]])
-        out += [f"<h3 id={_e(name)}>{_e(name)}</h3>", f"<p>{_e(entry['case'])}</p>", table(header, rows),
+        out += [f"<h3 id={_e(prefix)}-scenario-{_e(name)}>{_e(name)}</h3>", f"<p>{_e(entry['case'])}</p>", table(header, rows),
                 f"<p>{verdict or 'all methods equal'}</p>",
-                *_charts([plots[name]], "stress"),
+                *_charts([plots[name]], prefix),
                 *_images([p for p in crops if Path(p).name.startswith(f"{name}_")], "crop")]
     learned = [m for m in doc["methods"] if m not in BASELINES]
     if "taau" in doc["methods"]:
@@ -252,8 +258,9 @@ def stress_section(doc: dict, root: Path, staging: Path) -> list[str]:
 
 
 def size_section(doc: dict, staging: Path, rel: str) -> list[str]:
-    """One ``mnss-kit size`` ladder: its rows, the baselines, the choice and its chart."""
+    """One ``mnss-kit size`` ladder, headed by its scale: its rows, the baselines, the choice and its chart."""
     from ..size.charts import verdict, write_chart
+    from ..stress.verdict import scale_heading
 
     staging.mkdir(parents=True, exist_ok=True)
     chart = write_chart(doc, staging / "size.svg")
@@ -268,7 +275,7 @@ def size_section(doc: dict, staging: Path, rel: str) -> list[str]:
     rows += [[_e(f"{name} (baseline)"), "0", "0", _num(q["psnr"]), _num(q["ssim"], 4), _num(q["if_ssim"], 4),
               *["-" for _ in settings["devices"]], "reference"] for name, q in doc["baselines"].items()]
     targets = ", ".join(doc.get("targets") or []) + (f"; budget {doc['budget']}" if doc.get("budget") else "")
-    return [f"<h2>Model size for held-out {_e(scene)}</h2>",
+    return [f"<h2>Model size{_e(scale_heading(doc))} for held-out {_e(scene)}</h2>",
             f"<p>{'Chosen: <b>' + _e(chosen) + '</b>' if chosen else 'No rung meets the targets'} "
             f"(targets: {_e(targets)}; {_e(settings['steps'])} training steps per rung on "
             f"{_e(len(settings['train_sequences']))} sequence(s) of the scene).</p>",

@@ -14,6 +14,8 @@ def verdict(row: dict, chosen: str | None) -> str:
 
 
 def markdown(doc: dict) -> str:
+    from ..ops.scale import scale_label
+
     rows = sorted(doc["rows"].values(), key=lambda r: r["macs_per_pixel"])
     devices = doc["settings"]["devices"]
     chosen = (doc.get("choice") or {}).get("config")
@@ -32,7 +34,7 @@ def markdown(doc: dict) -> str:
     s = doc["settings"]
     targets = ", ".join(doc.get("targets") or []) + (f"; budget {doc['budget']}" if doc.get("budget") else "")
     summary = (f"Chosen: **{chosen}**." if chosen else "No rung meets the targets.") + f" Targets: {targets}."
-    facts = (f"Trained {s['steps']} steps per rung on {len(s['train_sequences'])} sequence(s); evaluated on "
+    facts = (f"At {scale_label(s['scale'])}: trained {s['steps']} steps per rung on {len(s['train_sequences'])} sequence(s); evaluated on "
              f"{len(s['test_sequences'])} held-out sequence(s) never trained on ({', '.join(Path(t).name for t in s['test_sequences'])})"
              + (f", first {s['max_frames']} frames each" if s.get("max_frames") else "")
              + f". Device milliseconds are estimates at {s['output_size'][0]}x{s['output_size'][1]} output.")

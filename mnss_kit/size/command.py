@@ -22,8 +22,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "rung), taau:DB (PSNR at least DB above TAAU), psnr:FLOOR, ssim:FLOOR, if_ssim:FLOOR")
     parser.add_argument("--budget-ms", type=float, metavar="MS", help="estimated frame ms the model may take on --device")
     parser.add_argument("--device", metavar="NAME", help="device profile of --budget-ms (mnss_kit/configs/devices)")
+    parser.add_argument("--scale", metavar="S",
+                        help="the scale to size at, which the data must be at: 2, 3, 4 or a quality mode in [1.25, 4] "
+                             "such as 1.5 (default: the data's)")
     parser.add_argument("--ladder", nargs="+", metavar="CONFIG",
-                        help="model configs to try (default: every shipped config at the data's scale)")
+                        help="model configs to try; a config at another scale is trained at the data's when its family "
+                             "runs at any scale, refused otherwise (default: every shipped config at the scale, or at a "
+                             "scale none is shipped at, such as 1.5, every config of a family that runs at any scale)")
     parser.add_argument("--steps", type=_positive_int, default=2000, help="training steps per rung (default: %(default)s)")
     parser.add_argument("--minutes", type=float, metavar="M", help="wall-time cap per rung (rows say when it stopped a run)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
@@ -40,8 +45,10 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import UserError
     from ..fileio import atomic_write_text, check_output
     from ..split.inputs import parse_resolution
+    from ..ops.scale import parse_scale
     from .select import Budget, parse_target
 
+    scale = None if args.scale is None else parse_scale(args.scale, "--scale")  # 0.5, 1.0, nan, 9: one line
     check_output(args.out, "into")
     targets = [parse_target(t) for t in args.target]
     if (args.budget_ms is None) != (args.device is None):
@@ -62,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     request = SizeRequest(data=args.data, targets=targets, out=args.out, test=args.test, held_out=args.held_out,
                           ladder=args.ladder, overrides=args.overrides, steps=args.steps, minutes=args.minutes, budget=budget,
                           output_size=parse_resolution(args.output_size, "--output-size"), max_frames=args.max_frames,
-                          progress=not args.no_progress)
+                          scale=scale, progress=not args.no_progress)
     doc = run_size(request)
     table = markdown(doc)
     atomic_write_text(args.out / "size.md", table)

@@ -29,7 +29,7 @@ class SizeRequest:
     out: Path
     test: list[Path] | None = None  # held-out sequences (default: the last ``held_out`` of ``data``)
     held_out: int = 1
-    ladder: list[str] | None = None  # model config names (default: every shipped config at the data's scale)
+    ladder: list[str] | None = None  # model config names (default: :func:`default_ladder` at the data's scale)
     overrides: list[str] = field(default_factory=list)  # ``--set`` for every rung (train.crop=16)
     steps: int = 2000  # training steps per rung, the same for every rung
     minutes: float | None = None  # wall-time cap per rung (a capped rung says so in its row)
@@ -37,16 +37,19 @@ class SizeRequest:
     devices: list[str] | None = None  # device profiles estimated (default: every shipped one)
     output_size: tuple[int, int] = (1280, 720)  # HR size of the device estimates
     max_frames: int | None = None  # per held-out sequence
+    scale: int | float | None = None  # a parsed --scale, which the data must be at (default: the data's)
     progress: bool = True
 
 
 def run_size(request: SizeRequest) -> dict:
     """Train and evaluate the ladder, choose a rung; returns the size document (also in ``OUT/size.json``)."""
+    from ..ops.scale import check_data_scale_is
     from ..split.device import device_names
 
     train_seqs, test_seqs = split_sequences(request.data, request.test, request.held_out)
     scale = _common_scale(train_seqs + test_seqs)
-    names = ladder_configs(request.ladder, scale)
+    check_data_scale_is(scale, request.scale, ", ".join(str(d) for d in request.data))
+    names = ladder_configs(request.ladder, scale, "--scale" if request.scale else "the data")
     devices = list(request.devices or device_names())
     settings = {
         "data": [portable_path(d) for d in request.data],
@@ -62,10 +65,10 @@ def run_size(request: SizeRequest) -> dict:
         atomic_write_json(request.out / "size.json", doc)
     for i, name in enumerate(names, 1):
         log.info("rung %d/%d: %s", i, len(names), name)
-        checkpoint = train_rung(name, train_seqs, request)
+        checkpoint = train_rung(name, train_seqs, scale, request)
         digest = sha256_file(checkpoint)
         if (doc["rows"].get(name) or {}).get("checkpoint_sha256") != digest:
-            doc["rows"][name] = evaluate_rung(name, checkpoint, digest, test_seqs, devices, request)
+            doc["rows"][name] = evaluate_rung(name, checkpoint, digest, test_seqs, scale, devices, request)
             atomic_write_json(request.out / "size.json", doc)
     return decide(doc, request.targets, request.budget, request.out)
 
@@ -101,28 +104,47 @@ def split_sequences(data: list[Path], test: list[Path] | None, held_out: int) ->
     return seqs[:-held_out], seqs[-held_out:]
 
 
-def ladder_configs(names: list[str] | None, scale: int) -> list[str]:
-    """The rungs' config names, by increasing MACs per pixel; all at ``scale``."""
+def ladder_configs(names: list[str] | None, scale: int | float, what: str = "the data") -> list[str]:
+    """The rungs' config names, by increasing MACs per pixel, each able to run at ``scale``: a config
+    at it, or one of a family whose models run at any scale (trained at ``scale``,
+    :func:`rung_experiment`); any other is refused in one line, ``what`` naming where the scale came from."""
     from ..model.run import config_rows
 
     rows = {r["name"]: r for r in config_rows()}
-    names = names or [n for n, r in rows.items() if r["scale"] == scale]
+    names = names or default_ladder(rows, scale)
     unknown = [n for n in names if n not in rows]
     if unknown:
         raise UserError(f"unknown model config '{unknown[0]}' (shipped: {', '.join(sorted(rows))})")
-    wrong = [n for n in names if rows[n]["scale"] != scale]
-    if wrong:
-        raise UserError(f"model config '{wrong[0]}' is x{rows[wrong[0]]['scale']} but the data is x{scale}")
+    for name in (n for n in names if rows[n]["scale"] != scale):
+        _check_runs_at(name, scale, what)
     if len(names) < 2:
         raise UserError(f"a ladder needs at least two model configs at x{scale}, got {len(names)}")
     return sorted(names, key=lambda n: rows[n]["macs_per_pixel"])
 
 
-def rung_experiment(name: str, train_seqs: list[Path], request: SizeRequest):
-    """The config ``name`` set to train ``request.steps`` steps on exactly ``train_seqs``."""
+def default_ladder(rows: dict[str, dict], scale: int | float) -> list[str]:
+    """Every shipped config at ``scale``; at a scale none is shipped at (a quality mode such as 1.5),
+    every shipped config of a family whose models run at any scale."""
+    from ..model.config import load_model_config
+    from ..train.run import takes_frame_scale
+
+    return [n for n, r in rows.items() if r["scale"] == scale] or [n for n in rows if takes_frame_scale(load_model_config(n))]
+
+
+def _check_runs_at(name: str, scale: int | float, what: str) -> None:
+    """A one-line refusal of config ``name`` unless its models run at ``scale`` (``run_at_scale``'s rule)."""
+    from ..model.config import load_model_config
+    from ..model.families import build_model, run_at_scale
+
+    run_at_scale(build_model(load_model_config(name)), scale, what=what, where=f"model config '{name}'")
+
+
+def rung_experiment(name: str, train_seqs: list[Path], scale: int | float, request: SizeRequest):
+    """The config ``name`` at ``scale`` set to train ``request.steps`` steps on exactly ``train_seqs``."""
     from ..train.config import load_experiment
 
-    experiment, _ = load_experiment(name, request.overrides)
+    # the config's scale key: a config of a family that runs at any scale trains at the ladder's
+    experiment, _ = load_experiment(name, [f"model.scale={scale}", *request.overrides])
     experiment.train.train_data = [str(s) for s in train_seqs]
     experiment.train.val_data = None  # the held-out sequences stay unseen, even as a monitor
     experiment.train.total_steps = request.steps
@@ -131,12 +153,12 @@ def rung_experiment(name: str, train_seqs: list[Path], request: SizeRequest):
     return experiment
 
 
-def train_rung(name: str, train_seqs: list[Path], request: SizeRequest) -> Path:
+def train_rung(name: str, train_seqs: list[Path], scale: int | float, request: SizeRequest) -> Path:
     """``OUT/runs/<name>/model.pt``: trained now, resumed, or reused when trained with these settings."""
     from ..model.checkpoint import read_record
     from ..train.run import FINAL, LAST, train
 
-    experiment = rung_experiment(name, train_seqs, request)
+    experiment = rung_experiment(name, train_seqs, scale, request)
     run_dir = request.out / "runs" / name
     final, last = run_dir / FINAL, run_dir / LAST
     if final.is_file():
@@ -169,16 +191,18 @@ def _trained_as(record: dict, experiment) -> bool:
     return same and describes(record.get("config"), experiment.model)
 
 
-def evaluate_rung(name: str, checkpoint: Path, digest: str, test_seqs: list[Path], devices: list[str], request: SizeRequest) -> dict:
-    """One ladder row: quality on the held-out sequences, cost, and training facts."""
+def evaluate_rung(name: str, checkpoint: Path, digest: str, test_seqs: list[Path], scale: int | float, devices: list[str],
+                  request: SizeRequest) -> dict:
+    """One ladder row: quality on the held-out sequences at ``scale``, cost, and training facts."""
     from ..bench.run import model_cost, quality
     from ..eval.methods import model_method
     from ..eval.loop import evaluate
     from ..model.checkpoint import load
-    from ..model.families import family_of
+    from ..model.families import family_of, run_at_scale
 
     model, record = load(checkpoint)
-    result = evaluate({"model": model_method(model)}, test_seqs, scale=model.scale, max_frames=request.max_frames,
+    run_at_scale(model, scale, what="the data", where=str(checkpoint))  # a --set model.scale may have trained it at another
+    result = evaluate({"model": model_method(model)}, test_seqs, scale=scale, max_frames=request.max_frames,
                       progress=request.progress)
     training = record.get("training") or {}
     return json_safe({
@@ -189,7 +213,7 @@ def evaluate_rung(name: str, checkpoint: Path, digest: str, test_seqs: list[Path
     })
 
 
-def _baselines(test_seqs: list[Path], scale: int, request: SizeRequest) -> dict:
+def _baselines(test_seqs: list[Path], scale: int | float, request: SizeRequest) -> dict:
     from ..bench.run import quality
     from ..eval.baselines import baseline_methods
     from ..eval.loop import evaluate
@@ -199,7 +223,7 @@ def _baselines(test_seqs: list[Path], scale: int, request: SizeRequest) -> dict:
     return json_safe({name: quality(result["methods"][name]) for name in methods})
 
 
-def _common_scale(seqs: list[Path]) -> int:
+def _common_scale(seqs: list[Path]) -> int | float:
     from ..dataset import format as fmt
 
     scales = {fmt.read_meta(s).scale for s in seqs}

@@ -6,6 +6,9 @@ cut and each scenario event (the end of a fast pan); the per-frame PSNR for the 
 (``scenarios.FAULTS``: one frame of NaN colour, one of Inf depth) and method: the frames until PSNR
 is back within 0.5 dB of the clean run and whether every output stayed finite.  All methods
 see the same frames in one evaluation loop (``mnss-kit eval``'s), so the numbers are paired.
+At a scale S (``--scale``; default the data's, else the config's x2) the scenarios are rendered at
+S and every model runs at it; a baseline that does not take S (FSR2 at a fractional one) is named
+under ``not_covered``.
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ class StressRequest:
     max_frames: int | None = None
     crops_dir: Path | None = None
     progress: bool = True
+    scale: int | float | None = None  # a parsed --scale (default: the data's, or the stress config's)
 
 
 def run_stress(request: StressRequest) -> dict:
@@ -39,8 +43,10 @@ def run_stress(request: StressRequest) -> dict:
     from ..dataset import format as fmt
     from ..eval.loop import evaluate
 
-    data = request.data or _render(request.work / "data" / DATA_CONFIG, request.progress)
-    methods, scale = _methods(request.models, data)
+    scale = stress_scale(request)
+    # the models are refused before a render: one that cannot run at the scale names why
+    methods, skipped = _methods(request.models, scale, "--scale" if request.scale else "the stress data")
+    data = request.data or _render(scenario_config(scale), rendered_dir(request.work, scale), request.progress)
     result = evaluate(methods, data, scale=scale, max_frames=request.max_frames, crops_dir=request.crops_dir,
                       progress=request.progress)
     scenarios = {}
@@ -62,10 +68,11 @@ def run_stress(request: StressRequest) -> dict:
             "settings": {"data": portable_path(data), "models": list(request.models), "max_frames": request.max_frames,
                          "recovery_tolerance_db": RECOVERY_TOLERANCE_DB, "scale": scale},
             "methods": list(methods), "scenarios": scenarios, "faults": faults,
-            "not_covered": {**NOT_COVERED, **{name: "scenario sequence missing from the data" for name in missing}}}
+            "not_covered": {**NOT_COVERED, **skipped,
+                            **{name: "scenario sequence missing from the data" for name in missing}}}
 
 
-def _run_fault(fault: Fault, methods: dict, source: Path, scale: int, request: StressRequest) -> list[dict] | str:
+def _run_fault(fault: Fault, methods: dict, source: Path, scale: int | float, request: StressRequest) -> list[dict] | str:
     """The per-frame rows of every method on ``source`` with ``fault`` applied, or the error when a
     method's output was not finite (the evaluation refuses NaN / Inf outputs)."""
     from ..eval.loop import evaluate
@@ -101,31 +108,78 @@ def fault_entry(fault: Fault, clean: list[dict], rows: list[dict] | str, methods
     return entry
 
 
-def _render(out: Path, progress: bool) -> Path:
+def stress_scale(request: StressRequest) -> int | float:
+    """The scale of the run: ``--data``'s (which must be ``--scale`` when both are given), else
+    ``--scale``, else the stress config's."""
+    from ..dataset import format as fmt
+    from ..ops.scale import check_data_scale_is
+
+    if request.data is None:
+        return request.scale or _config_scale()
+    data_scale = fmt.read_meta(fmt.find_sequences(request.data)[0]).scale
+    check_data_scale_is(data_scale, request.scale, request.data)
+    return data_scale
+
+
+def _config_scale() -> int | float:
     from ..render.config import load_render_config
+
+    return load_render_config(DATA_CONFIG).sequences[0].scale
+
+
+def scenario_config(scale):
+    """The scenarios at ``scale`` as ``mnss-kit render stress --scale S`` sets them, with Halton jitter
+    for the grid-jittered ones where the grid pattern has no order (beyond x3, fractional scales):
+    a per-sequence override, so the un-jittered scenario stays un-jittered."""
+    from ..ops.jitter import GRID_SCALES
+    from ..render.config import load_render_config
+
+    as_written = load_render_config(DATA_CONFIG)
+    if scale == _config_scale():
+        return as_written
+    halton = [f"{s.name}.jitter=halton" for s in as_written.sequences if s.jitter == "grid" and scale not in GRID_SCALES]
+    return load_render_config(DATA_CONFIG, [f"scale={scale}", *halton])
+
+
+def rendered_dir(work: Path, scale) -> Path:
+    """Where the scenarios at ``scale`` are rendered: ``work/data/stress`` at the config's scale, as
+    before, ``stress_x1.5`` beside it at another, so renders at two scales never share frames."""
+    from ..ops.scale import scale_label
+
+    name = DATA_CONFIG if scale == _config_scale() else f"{DATA_CONFIG}_{scale_label(scale)}"
+    return work / "data" / name
+
+
+def _render(config, out: Path, progress: bool) -> Path:
     from ..render.run import render_dataset
 
-    render_dataset(load_render_config(DATA_CONFIG), out, progress=progress)  # skips frames already present
+    render_dataset(config, out, progress=progress)  # skips frames already present
     return out
 
 
-def _methods(models: list[str], data: Path) -> tuple[dict, int]:
-    """``{label: method}`` for every model (by checkpoint name) and the baselines, and the scale."""
-    from ..dataset import format as fmt
-    from ..eval.baselines import baseline_methods
+def _methods(models: list[str], scale, what: str) -> tuple[dict, dict[str, str]]:
+    """``{label: method}`` for every model (by checkpoint name) set to run at ``scale`` (a one-line
+    refusal of one that cannot, ``what`` naming where the scale came from) and the baselines that
+    take it; and ``{baseline: why it was left out}``."""
+    from ..eval.baselines import baseline_methods, baselines_at
     from ..eval.methods import model_method
     from ..model.checkpoint import load
+    from ..model.families import run_at_scale
+    from ..ops.scale import scale_label
 
-    scale = fmt.read_meta(fmt.find_sequences(data)[0]).scale
     methods = {}
     for name in models:
         model, record = load(name)
         label = record.get("name") or Path(name).stem
         if label in methods or label in BASELINES:
             raise UserError(f"model '{name}': the name '{label}' is given twice or is a baseline's")
+        run_at_scale(model, scale, what=what, where=f"model '{name}'")
         model.eval()
         methods[label] = model_method(model)
-    return {**methods, **baseline_methods(scale, BASELINES)}, scale
+    baselines = baselines_at(scale, BASELINES)
+    skipped = {b: f"the {b} baseline takes integer scales only so far: not run at {scale_label(scale)}"
+               for b in BASELINES if b not in baselines}
+    return {**methods, **baseline_methods(scale, baselines)}, skipped
 
 
 def scenario_entry(name: str, info: dict, rows: list[dict], times: list[float], methods: list[str]) -> dict:

@@ -78,9 +78,18 @@ def _recovery_cell(stats: dict) -> str:
     return ", ".join("never" if f is None else str(f) for f in frames) if frames else "-"
 
 
+def scale_heading(doc: dict) -> str:
+    """`` (x1.5)`` for a document whose settings record its scale (stress, size), else nothing
+    (documents from before they did)."""
+    from ..ops.scale import scale_label
+
+    scale = doc.get("settings", {}).get("scale")
+    return f" ({scale_label(scale)})" if scale is not None else ""
+
+
 def markdown(doc: dict) -> str:
     """The stress table, the verdict per scenario, the learned models against each baseline, and what is not covered."""
-    lines = ["# Stress scenarios", "", f"Methods: {', '.join(doc['methods'])} (same frames, one run).",
+    lines = [f"# Stress scenarios{scale_heading(doc)}", "", f"Methods: {', '.join(doc['methods'])} (same frames, one run).",
              f"Frames to recover: until PSNR is within {doc['settings']['recovery_tolerance_db']} dB of steady state "
              "after each camera cut or pan end (one number per event).", "",
              "| scenario | method | PSNR | SSIM | IF-SSIM | temporal error | disocclusion PSNR | frames to recover |",

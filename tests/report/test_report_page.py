@@ -14,6 +14,7 @@ import pytest
 from mnss_kit.cli import main
 from mnss_kit.eval.crops import write_crops
 from mnss_kit.fileio import atomic_write_json
+from mnss_kit.ops.scale import scale_label
 from mnss_kit.report.run import build_report
 from mnss_kit.stress.scenarios import NOT_COVERED
 
@@ -55,25 +56,27 @@ MODELS = [("ntaau_x2", "ntaau", 31.75, 2872, 3.1), ("ntaau_x2_fast", "ntaau", 31
           ("fusesr_x2_hybrid", "fusesr", 31.19, 9000, 7.0)]
 
 
-def _bench(root):
+def _bench(root, scales=(2,)):
     records = [_record("bicubic", "baseline", "baseline", 29.1, 0.0), _record("taau", "baseline", "baseline", 31.2, 0.0)]
     for name, family, psnr, macs, ms in MODELS:
         records += [_record(name, family, "fp32", psnr, macs, ms), _record(name, family, "int8", psnr - 0.04, macs, ms)]
     section = {"records": {f"{r['name']}/{r['precision']}": r for r in records},
                "settings": {"quick": True, "devices": ["phone_a", "phone_b"], "scale": 2, "data": "tiny_test",
                             "latency_size": [320, 180]}}
+    benches = {scale_label(s): {**section, "settings": {**section["settings"], "scale": s}} for s in scales}
     note = ("quality on held-out frames; cpu_ms medians of interleaved runs on a shared machine (compare ratios within one "
             "run); device_ms are estimates from the device profiles, not measurements")
-    doc = {"format": "mnss-kit-bench", "version": 2, "note": note, "benches": {"x2": section}}
+    doc = {"format": "mnss-kit-bench", "version": 2, "note": note, "benches": benches}
     atomic_write_json(root / "bench.json", doc)
     return root / "bench.json"
 
 
-def _stress(root):
+def _stress(root, scale=None):
     stats = {"psnr": 30.0, "ssim": 0.9, "if_ssim": 0.95, "temporal_error": 0.01, "disocclusion_psnr": 20.0,
              "disocclusion_l1": 0.05, "disoccluded_pixels": 10, "warmup_frames": 1, "frames_to_recover": [2]}
     methods = {"m": stats, "bicubic": dict(stats, psnr=27.0), "taau": dict(stats, psnr=29.0, frames_to_recover=[None])}
-    doc = {"format": "mnss-kit-stress", "version": 1, "settings": {"recovery_tolerance_db": 0.5}, "methods": list(methods),
+    settings = {"recovery_tolerance_db": 0.5, **({"scale": scale} if scale else {})}
+    doc = {"format": "mnss-kit-stress", "version": 1, "settings": settings, "methods": list(methods),
            "not_covered": dict(NOT_COVERED),
            "scenarios": {"camera_cut": {"case": "camera cut <history>", "frames": 3, "cuts": [1], "events": [1],
                                         "jitter_pattern": "grid", "methods": methods,
@@ -86,13 +89,14 @@ def _stress(root):
     return root / "stress.json"
 
 
-def _size(root):
+def _size(root, scale=None):
     def rung(config, macs, psnr, misses):
         return {"config": config, "macs_per_pixel": macs, "params": 100, "psnr": psnr, "ssim": 0.9, "if_ssim": 0.95,
                 "device_ms": {"phone_a": macs / 1000}, "steps": 10, "misses": misses}
 
     doc = {"format": "mnss-kit-size", "version": 1, "targets": ["within:0.3"], "budget": None,
-           "settings": {"devices": ["phone_a"], "steps": 10, "train_sequences": ["a", "b"], "test_sequences": ["scene/held"]},
+           "settings": {"devices": ["phone_a"], "steps": 10, "train_sequences": ["a", "b"], "test_sequences": ["scene/held"],
+                        **({"scale": scale} if scale else {})},
            "rows": {"tiny": rung("tiny", 1700, 30.0, ["PSNR 1.00 dB below big (allowed 0.3)"]), "big": rung("big", 7400, 31.0, [])},
            "baselines": {"taau": {"psnr": 29.5, "ssim": 0.9, "if_ssim": 0.95}}, "choice": {"config": "big"}}
     (root / "size").mkdir()
@@ -123,20 +127,20 @@ needs_chromium = pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chr
 
 @needs_chromium
 def test_report_loads_in_chromium_with_every_image_and_no_console_error(tmp_path):
-    page = build_report(_bench(tmp_path), _stress(tmp_path), tmp_path / "report", sizes=[_size(tmp_path)])
+    page = build_report(_bench(tmp_path), [_stress(tmp_path)], tmp_path / "report", sizes=[_size(tmp_path)])
     text = page.read_text()
     assert "(estimate)" in text and "camera cut &lt;history&gt;" in text and "hud_overlay" in text
     assert "Model size for held-out held" in text and "Chosen: <b>big</b>" in text and "1.00 dB below big" in text
     record, console = _open(page, tmp_path)
     sources = [src for src, _ in record["images"]]
-    assert any(src.startswith("stress/crops/camera_cut_") for src in sources)
+    assert any(src.startswith("stress/0/crops/camera_cut_") for src in sources)
     assert all(ok for _, ok in record["images"]), record["images"]
     charts = [chart_id for chart_id, _, _ in record["charts"]]
-    assert "bench-x2-psnr_vs_macs" in charts and "stress-camera_cut" in charts and "size-0-size" in charts
+    assert "bench-x2-psnr_vs_macs" in charts and "stress-0-camera_cut" in charts and "size-0-size" in charts
     assert record["errors"] == [] and console == [], (record["errors"], console)
 
     # the same check sees a missing image: it is not a check that always passes
-    crop = next(src for src in sources if src.startswith("stress/crops/"))
+    crop = next(src for src in sources if src.startswith("stress/0/crops/"))
     (tmp_path / "report" / crop).unlink()
     record, _ = _open(page, tmp_path)
     assert dict(record["images"])[crop] is False
@@ -151,7 +155,7 @@ OVERLAPPING_CHART = """<div class=chart id=overlap-check><svg width="200" height
 
 @needs_chromium
 def test_no_two_chart_labels_overlap_in_chromium(tmp_path):
-    page = build_report(_bench(tmp_path), _stress(tmp_path), tmp_path / "report", sizes=[_size(tmp_path)])
+    page = build_report(_bench(tmp_path), [_stress(tmp_path)], tmp_path / "report", sizes=[_size(tmp_path)])
     record, _ = _open(page, tmp_path)
     charts = {chart_id: (texts, overlaps) for chart_id, texts, overlaps in record["charts"]}
     assert len(charts) == 6 + 1 + 1  # the bench's six of x2, one stress scenario, one size ladder
@@ -197,3 +201,22 @@ def test_report_command_names_a_wrong_file_and_needs_an_input(tmp_path, capsys):
     assert main(["report", "--bench", str(_bench(tmp_path)), "--budget-ms", "4", "0", "--out", str(tmp_path / "r")]) == 2
     assert "--budget-ms must be positive, got 4 0" in capsys.readouterr().err
     assert not (tmp_path / "r").exists()
+
+
+def test_results_at_several_scales_are_headed_by_their_scale(tmp_path, capsys):
+    for scale in (2, 1.5):
+        (tmp_path / scale_label(scale)).mkdir()
+    stresses = [_stress(tmp_path / scale_label(scale), scale) for scale in (2, 1.5)]
+    out = tmp_path / "report"
+    assert main(["report", "--bench", str(_bench(tmp_path, scales=(2, 1.5))), "--stress", str(stresses[0]),
+                 "--stress", str(stresses[1]), "--size", str(_size(tmp_path, 1.5)), "--out", str(out)]) == 0
+    page = (out / "index.html").read_text()
+    text = html.unescape(re.sub(r"<[^>]+>", "", page))
+    assert text.index("Verdict (x1.5).") < text.index("Verdict (x2).")  # the smaller scale first
+    assert "Stress scenarios (x2)" in text and "Stress scenarios (x1.5)" in text
+    assert "Model size (x1.5) for held-out held" in text
+    # each run keeps its own anchors, plots and crops
+    ids = re.findall(r"<h[23] id=([^\s>]+)>", page) + re.findall(r'<div class=chart id="([^"]+)"', page)
+    assert len(ids) == len(set(ids))
+    assert {"stress-0", "stress-1", "stress-0-scenario-camera_cut", "stress-1-camera_cut"} <= set(ids)
+    assert all((out / f"stress/{i}/crops").glob("camera_cut_*.png") for i in (0, 1))

@@ -6,11 +6,13 @@ from __future__ import annotations
 import shutil
 
 import pytest
+import yaml
 
 from mnss_kit.cli import main
 from mnss_kit.dataset.synthetic import write_synthetic_sequence
 from mnss_kit.fileio import read_json
-from mnss_kit.model.checkpoint import resolve
+from mnss_kit.model.checkpoint import read_record, resolve
+from mnss_kit.size.run import ladder_configs
 
 FAST = ["--steps", "3", "--set", "train.crop=16", "--set", "train.burn_in=2", "--set", "train.window=2",
         "--set", "train.batch_size=2", "--ladder", "mnss_x2_tiny", "mnss_x2_small", "--max-frames", "4", "--no-progress"]
@@ -78,7 +80,7 @@ def test_a_rung_trained_with_other_settings_is_not_taken_for_this_ladder(scene, 
     (["--target", "within:1", "--budget-ms", "3", "--device", "no_such_phone"], "no_such_phone"),
     (["--target", "within:1", "--held-out", "3"], "leaves none to train on"),
     (["--target", "within:1", "--ladder", "mnss_x2_tiny"], "at least two model configs"),
-    (["--target", "within:1", "--ladder", "mnss_x2_tiny", "mnss_x3"], "is x3 but the data is x2"),
+    (["--target", "within:1", "--ladder", "mnss_x2_tiny", "mnss_x3"], "model config 'mnss_x3': the data is x2 but the model is x3"),
     (["--target", "within:1", "--ladder", "mnss_x2_tiny", "nope"], "unknown model config 'nope'"),
 ])
 def test_user_mistakes_are_one_line_errors(scene, tmp_path, capsys, extra, message):
@@ -92,3 +94,63 @@ def test_held_out_sequences_may_not_be_trained_on(scene, tmp_path, capsys):
     code = main(["size", "--data", str(scene / "data"), "--test", str(scene / "data" / "held"), "--target", "within:1",
                  "--out", str(tmp_path / "o"), "--no-progress"])
     assert code == 2 and "both in --data and in --test" in capsys.readouterr().err
+
+
+# -- --scale ----------------------------------------------------------------------------------------
+# the scene has no native TAA render for ntaau_lr_x2_small's taa_reference target
+FAST_1_5 = [*FAST[:FAST.index("--ladder")], "--set", "train.augment.taa_reference=0.0",
+            "--ladder", "ntaau_lr_x2_tiny", "ntaau_lr_x2_small", *FAST[FAST.index("--max-frames"):]]
+
+
+@pytest.fixture(scope="module")
+def scene_1_5(tmp_path_factory):
+    """Three tiny sequences of a scene rendered at 1.5 (32x18 -> 48x27)."""
+    root = tmp_path_factory.mktemp("size_scene_x1.5")
+    config = root / "scene.yaml"
+    config.write_text(yaml.safe_dump({"version": 1, "defaults": {"scene": "arena", "frames": 6, "lr_size": [32, 18],
+                                                                  "scale": 1.5, "jitter": "halton", "hr_samples": 1},
+                                      "sequences": [{"name": n, "seed": s} for n, s in (("a", 1), ("b", 2), ("held", 3))]}))
+    assert main(["render", str(config), "--out", str(root / "data"), "--no-progress"]) == 0
+    return root
+
+
+@pytest.mark.parametrize("value, message", [("0.5", "--scale 0.5 is outside"), ("1.0", "--scale 1 is outside"),
+                                            ("nan", "finite"), ("9", "--scale 9 is outside")])
+def test_bad_scales_are_refused_in_one_line(scene, tmp_path, capsys, value, message):
+    code = main(["size", "--data", str(scene / "data"), "--target", "within:1", "--out", str(tmp_path / "o"),
+                 "--scale", value, "--no-progress"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and message in err and "\n" not in err and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--scale", "2"], "data is x1.5 but --scale is 2"),
+    (["--ladder", "mnss_x2_tiny", "ntaau_lr_x2_tiny"],
+     "model config 'mnss_x2_tiny': the data is x1.5, a fractional scale, and the mnss family takes integer scales only"),
+    (["--scale", "1.5", "--ladder", "ntaau_lr_x2_tiny", "fusesr_x4_l"], "model config 'fusesr_x4_l': --scale is x1.5"),
+])
+def test_data_at_another_scale_and_rungs_that_cannot_run_at_it_are_refused_before_training(scene_1_5, tmp_path, capsys,
+                                                                                             extra, message):
+    code = main(["size", "--data", str(scene_1_5 / "data"), "--target", "within:1", "--out", str(tmp_path / "o"),
+                 "--no-progress", *extra])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and message in err and "\n" not in err
+    assert not (tmp_path / "o" / "runs").exists()
+
+
+def test_the_default_ladder_at_a_quality_mode_is_the_family_that_runs_at_any_scale():
+    assert ladder_configs(None, 1.5) == ["ntaau_lr_x2_tiny", "ntaau_lr_x2_small", "ntaau_lr_x2", "ntaau_lr_modes",
+                                         "ntaau_lr_x2_large"]
+    assert all(n.startswith("mnss_x2") for n in ladder_configs(["mnss_x2_tiny", "mnss_x2_small"], 2))
+
+
+def test_a_ladder_at_1_5_trains_its_rungs_at_1_5_and_says_so(scene_1_5, tmp_path):
+    out = tmp_path / "size"
+    assert main(["size", "--data", str(scene_1_5 / "data"), "--scale", "1.5", "--target", "within:100", "--out", str(out),
+                 *FAST_1_5]) == 0
+    doc = read_json(out / "size.json")
+    assert doc["settings"]["scale"] == 1.5 and set(doc["baselines"]) == {"bicubic", "taau"}
+    assert list(doc["rows"]) == ["ntaau_lr_x2_tiny", "ntaau_lr_x2_small"]
+    assert all(read_record(out / row["checkpoint"])[0]["scale"] == 1.5 for row in doc["rows"].values())
+    assert "At x1.5: trained 3 steps per rung" in (out / "size.md").read_text()
