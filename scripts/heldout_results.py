@@ -301,6 +301,11 @@ def model_costs(doc: dict) -> dict[str, dict]:
     return costs
 
 
+def _cost_cell(cost: dict, device: str) -> str:
+    moved = cost["boundary_bytes_per_pixel"][device]
+    return f"{cost['device_ms'][device]:.2f} ({moved['in']:.3g} / {moved['out']:.3g})"
+
+
 def cost_section(doc: dict) -> list[str]:
     """Each model's cost, as a table, and a chart of the mean PSNR table against it."""
     from mnss_kit.split.inputs import DEFAULT_RESOLUTION_TEXT
@@ -310,10 +315,13 @@ def cost_section(doc: dict) -> list[str]:
     lines = ["## Cost against quality", "",
              f"MACs per output pixel and estimated frame milliseconds at {DEFAULT_RESOLUTION_TEXT} output with the default GPU/NPU "
              "placement on each device profile: estimates from `mnss_kit/configs/devices/`, not measurements "
-             "(docs/placement_ntaau_x2.md has them per stage).  The chart sets them against the mean PSNR above; "
+             f"(`mnss-kit split MODEL --device NAME` has them per stage, docs/placement_{DEFAULT_MODEL}.md for the default).  "
+             "In brackets, the bytes each frame moves into the NPU and out of it per output pixel with that placement "
+             "(0 / 0: all on the GPU).  The chart sets them against the mean PSNR above; "
              "TAAU and bicubic run no network and are its reference lines.", "",
-             "| model | MACs/px | " + " | ".join(f"{d} ms (est.)" for d in devices) + " |", "|---|" + "---:|" * (1 + len(devices))]
-    lines += [f"| `{label}` | {cost['macs_per_pixel']:,.0f} | " + " | ".join(f"{cost['device_ms'][d]:.2f}" for d in devices) + " |"
+             "| model | MACs/px | " + " | ".join(f"{d} ms (est.) (B/px in / out)" for d in devices) + " |",
+             "|---|" + "---:|" * (1 + len(devices))]
+    lines += [f"| `{label}` | {cost['macs_per_pixel']:,.0f} | " + " | ".join(_cost_cell(cost, d) for d in devices) + " |"
               for label, cost in costs.items()]
     write_cost_chart(doc, costs, COST_CHART)
     return [*lines, "", f"![mean PSNR against MACs per pixel]({COST_CHART.relative_to(DOC.parent).as_posix()})", ""]

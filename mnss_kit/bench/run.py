@@ -338,18 +338,35 @@ def model_cost(model, devices: tuple[str, ...], hr_size: tuple[int, int]) -> dic
     from ..model.macs import count_macs
 
     macs = count_macs(model)
+    plans = default_placements(model, devices, hr_size)
     return {"macs_per_pixel": macs.total, "npu_macs_per_pixel": macs.by_placement("npu"), "params": macs.params,
-            "device_ms": device_estimates(model, devices, hr_size)}
+            "device_ms": {d: plan.estimated_frame_ms for d, plan in plans.items()},
+            "boundary_bytes_per_pixel": {d: boundary_bytes_per_pixel(plan) for d, plan in plans.items()}}
 
 
 def device_estimates(model, devices: tuple[str, ...], hr_size: tuple[int, int]) -> dict[str, float]:
     """Estimated frame milliseconds of the default placement on each device profile (estimates)."""
+    return {d: plan.estimated_frame_ms for d, plan in default_placements(model, devices, hr_size).items()}
+
+
+def default_placements(model, devices: tuple[str, ...], hr_size: tuple[int, int]) -> dict:
+    """``{device: Placement}``: the default GPU/NPU placement on each device profile."""
     from ..split.device import load_device
     from ..split.dataflow import trace_model
     from ..split.plan import plan_flow
 
     flow = trace_model(model)
-    return {d: plan_flow(flow, load_device(d), "default", hr_size).estimated_frame_ms for d in devices}
+    return {d: plan_flow(flow, load_device(d), "default", hr_size) for d in devices}
+
+
+def boundary_bytes_per_pixel(plan) -> dict[str, float]:
+    """Bytes a frame moves into the NPU (``in``) and out of it (``out``) per output pixel: the traffic
+    the GPU<->NPU handoffs carry, 0 for a placement all on the GPU."""
+    pixels = plan.resolution[0] * plan.resolution[1]
+    moved = {"in": 0, "out": 0}
+    for tensor in plan.boundary:
+        moved["in" if tensor.direction == "gpu->npu" else "out"] += tensor.bytes_per_frame
+    return {way: nbytes / pixels for way, nbytes in moved.items()}
 
 
 def export_at_size(name: str, data: Path, calibration: Path, bundle: Path) -> Path:

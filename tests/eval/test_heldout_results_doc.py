@@ -24,7 +24,7 @@ def test_checks_state_each_target_with_its_numbers(script):
     assert lines[0].startswith("- `unseen_x2` / grid: net 31.50 dB, TAAU 30.75 (+0.75, target +1.0: missed)")
     assert "seq_b (if_ssim 0.98 < 0.985)" in lines[0]
     assert "over bicubic +2.00 dB (target +4.0: missed)" in lines[1]
-    assert "fast fast 31.05 dB against TAAU 30.75 (beats it)" in lines[2]
+    assert "  - fast 31.05 dB against TAAU 30.75 (beats it)" == lines[2]
 
 
 def fake_costs(doc: dict) -> dict:
@@ -95,14 +95,15 @@ def test_a_miss_is_not_rounded_up_to_its_target(script):
 
 
 def test_the_cost_table_and_chart_come_from_each_models_cost(script, tmp_path, monkeypatch):
-    costs = {"net": {"macs_per_pixel": 2871.5, "device_ms": {"phone_a": 6.391, "phone_b": 68.9}},
-             "fast": {"macs_per_pixel": 1429.0, "device_ms": {"phone_a": 5.06, "phone_b": 34.3}}}
+    moved = {"phone_a": {"in": 5.75, "out": 8.0}, "phone_b": {"in": 0.0, "out": 0.0}}
+    costs = {"net": {"macs_per_pixel": 2871.5, "device_ms": {"phone_a": 6.391, "phone_b": 68.9}, "boundary_bytes_per_pixel": moved},
+             "fast": {"macs_per_pixel": 1429.0, "device_ms": {"phone_a": 5.06, "phone_b": 34.3}, "boundary_bytes_per_pixel": moved}}
     monkeypatch.setattr(script, "model_costs", lambda doc: costs)
     monkeypatch.setattr(script, "COST_CHART", tmp_path / "results" / "psnr_vs_macs.png")
     monkeypatch.setattr(script, "DOC", tmp_path / "results.md")
     lines = script.cost_section(results())
-    assert "| model | MACs/px | phone_a ms (est.) | phone_b ms (est.) |" in lines
-    assert "| `net` | 2,872 | 6.39 | 68.90 |" in lines
+    assert "| model | MACs/px | phone_a ms (est.) (B/px in / out) | phone_b ms (est.) (B/px in / out) |" in lines
+    assert "| `net` | 2,872 | 6.39 (5.75 / 8) | 68.90 (0 / 0) |" in lines
     assert "![mean PSNR against MACs per pixel](results/psnr_vs_macs.png)" in lines
     assert (tmp_path / "results" / "psnr_vs_macs.png").read_bytes().startswith(b"\x89PNG")
 
@@ -111,3 +112,11 @@ def test_a_models_cost_is_counted_from_its_architecture(script):
     costs = script.model_costs({"models": ["ntaau_x2_fast"], "labels": ["ntaau_x2_fast"]})
     assert round(costs["ntaau_x2_fast"]["macs_per_pixel"]) == 1429
     assert all(ms > 0 for ms in costs["ntaau_x2_fast"]["device_ms"].values())
+
+
+def test_the_boundary_bytes_are_the_npus_tensors_per_output_pixel(script):
+    """ntaau_lr_x2's NPU reads 8 int8 values and writes 6 per LR pixel, a quarter of an HR pixel at
+    x2: 2 bytes in and 1.5 out per HR pixel where the NPU runs it, none where the GPU does all."""
+    moved = script.model_costs({"models": ["ntaau_lr_x2"], "labels": ["lr"]})["lr"]["boundary_bytes_per_pixel"]
+    assert moved["snapdragon_8_gen_1"] == {"in": 2.0, "out": 1.5}
+    assert moved["helio_g99"] == {"in": 0.0, "out": 0.0}
