@@ -97,9 +97,7 @@ def test_held_out_sequences_may_not_be_trained_on(scene, tmp_path, capsys):
 
 
 # -- --scale ----------------------------------------------------------------------------------------
-# the scene has no native TAA render for ntaau_lr_x2_small's taa_reference target
-FAST_1_5 = [*FAST[:FAST.index("--ladder")], "--set", "train.augment.taa_reference=0.0",
-            "--ladder", "ntaau_lr_x2_tiny", "ntaau_lr_x2_small", *FAST[FAST.index("--max-frames"):]]
+FAST_1_5 = [*FAST[:FAST.index("--ladder")], "--ladder", "ntaau_lr_x2_tiny", "ntaau_lr_x2_small", *FAST[FAST.index("--max-frames"):]]
 
 
 @pytest.fixture(scope="module")
