@@ -2,11 +2,11 @@
 
 ``mnss_kit.model.checkpoint.load("<name>")`` and ``mnss-kit models`` find them here.
 
-``ntaau_lr_x2.pt`` (the default, :data:`DEFAULT_MODEL`) and ``ntaau_lr_x2_small.pt``: the configs of
-the same names, an encoder-decoder at LR that steers TAAU from depth and motion evidence with a
-spatial fallback and a history at least TAAU's on still pixels, trained by ``mnss-kit train
-ntaau_lr_x2`` (and ``ntaau_lr_x2_small``) on ``train_engine_x2`` and its engine variant against the
-16-sample box reference (docs/results.md, docs/results_engine.md, docs/studies/ntaau_lr.md).
+``ntaau_lr_x2.pt`` (the default, :data:`DEFAULT_MODEL`): the config of the same name, an
+encoder-decoder at LR that steers TAAU from depth and motion evidence with a spatial fallback and a
+history at least TAAU's on still pixels, trained by ``mnss-kit train ntaau_lr_x2`` on
+``train_engine_x2`` and its engine variant against the 16-sample box reference (docs/results.md,
+docs/results_engine.md, docs/studies/ntaau_lr.md).
 ``ntaau_x2.pt`` (the default before it) and ``ntaau_x2_fast.pt``: the configs of the
 same names, small nets that steer the toolkit's TAAU and its display filter, trained by
 ``mnss-kit train ntaau_x2_base`` then ``ntaau_x2``, which fine-tunes it (and the same for
