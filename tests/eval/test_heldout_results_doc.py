@@ -22,9 +22,17 @@ def results() -> dict:
 def test_checks_state_each_target_with_its_numbers(script):
     lines = script.checks(results())
     assert lines[0].startswith("- `unseen_x2` / grid: net 31.50 dB, TAAU 30.75 (+0.75, target +1.0: missed)")
-    assert "seq_b (if_ssim 0.98 < 0.985)" in lines[0]
+    assert lines[0].endswith("floors missed on seq_b (if_ssim 0.9800 < TAAU 0.9850 - 0.002)")
     assert "over bicubic +2.00 dB (target +4.0: missed)" in lines[1]
     assert "  - fast 31.05 dB against TAAU 30.75 (beats it)" == lines[2]
+
+
+def test_the_floors_allow_ssim_slack_and_hold_psnr_to_the_better_baseline(script):
+    per = {"net": quality(30.2, 0.9985), "taau": quality(30.0, 0.9999), "bicubic": quality(30.5)}
+    assert script.floor_breaches("s", per, "net") == ["s (psnr 30.20 < best baseline 30.50 - 0.1)"]
+    per["bicubic"] = quality(30.25)
+    per["net"]["ssim"] = 0.9479  # TAAU's 0.95 - 0.0021
+    assert script.floor_breaches("s", per, "net") == ["s (ssim 0.9479 < TAAU 0.9500 - 0.002)"]
 
 
 def fake_costs(doc: dict) -> dict:
