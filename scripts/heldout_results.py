@@ -21,6 +21,7 @@ same checkpoint files and frame count).  Every sequence is cut to its first FRAM
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 from pathlib import Path
 
@@ -302,13 +303,18 @@ def model_costs(doc: dict) -> dict[str, dict]:
     """Per model: MACs per output pixel and the estimated frame ms of its default placement on each
     device profile at the split's default resolution (from the architecture, not the weights;
     estimates, not measurements)."""
+    return _costs(tuple(doc["models"]), tuple(doc["labels"]))
+
+
+@functools.lru_cache(maxsize=4)  # the page and the README table ask for the same models' costs
+def _costs(models: tuple[str, ...], labels: tuple[str, ...]) -> dict[str, dict]:
     from mnss_kit.bench.run import model_cost
     from mnss_kit.model.checkpoint import load
     from mnss_kit.split.inputs import DEFAULT_RESOLUTION
     from mnss_kit.split.device import device_names
 
     costs = {}
-    for name, label in zip(doc["models"], doc["labels"]):
+    for name, label in zip(models, labels):
         model, _ = load(name)
         model.eval()
         costs[label] = model_cost(model, tuple(device_names()), DEFAULT_RESOLUTION)
