@@ -45,6 +45,7 @@ sys.path.insert(0, str(REPO))
 from mnss_kit.cli import main as cli  # noqa: E402
 from mnss_kit.errors import UserError  # noqa: E402
 from mnss_kit.fileio import atomic_write_json, atomic_write_text, portable_path, read_json  # noqa: E402
+from mnss_kit.ops.jitter import GRID_SCALES  # noqa: E402
 from mnss_kit.ops.scale import is_integer, lr_size_for, parse_scale, scale_label  # noqa: E402
 from mnss_kit.split.inputs import DEFAULT_RESOLUTION, DEFAULT_RESOLUTION_TEXT  # noqa: E402
 
@@ -70,7 +71,7 @@ def parse_sets(items: list[str] | None) -> dict[str, tuple]:
 
 def render_overrides(scale, jitter: str | None, extra: list[str]) -> list[str]:
     """``--set`` arguments of one mode's render."""
-    pattern = jitter or (None if is_integer(scale) else "halton")
+    pattern = jitter or (None if scale in GRID_SCALES else "halton")
     sets = [f"jitter={pattern}"] if pattern else []
     return [a for o in [*sets, *extra] for a in ("--set", o)]
 
