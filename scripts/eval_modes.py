@@ -29,7 +29,7 @@ IF-SSIM against TAAU and bicubic, and per mode the render cost saved and the est
 each device profile (``mnss-kit split --scale S``).  ``--doc-only`` writes it from OUT/modes.json
 without evaluating again::
 
-    python scripts/eval_modes.py runs/ntaau_lr_modes/model.pt --out benchmarks/results/modes --doc-only --doc docs/modes.md
+    python scripts/eval_modes.py --out benchmarks/results/modes --doc-only --doc docs/modes.md
 """
 
 from __future__ import annotations
@@ -108,23 +108,84 @@ def run_mode(model: str, config: str, scale, variant: str, args) -> dict:
     entry = {"set": Path(config).stem, "scale": scale, "variant": variant, "data": str(data), "json": str(out_json)}
     if error:
         return {**entry, "error": error}
-    evaluate = ["eval", model, "--data", str(data), "--scale", str(scale), "--json", str(out_json),
-                "--reference", args.reference]
-    if args.max_frames:
-        evaluate += ["--max-frames", str(args.max_frames)]
-    if args.no_progress:
-        evaluate.append("--no-progress")
-    if out_json.exists():
-        out_json.unlink()  # eval refuses to overwrite; a new run of the script evaluates again
-    if cli(evaluate) != 0:  # the CLI prints the one-line reason (e.g. a model of another scale)
+    evaluate = eval_command(model, data, scale, out_json, args)
+    result = evaluated(evaluate, out_json, args.resume)
+    if result is None:  # the CLI printed the one-line reason (e.g. a model of another scale)
         return {**entry, "error": f"eval failed: mnss-kit {' '.join(evaluate)}"}
-    result = json.loads(out_json.read_text())
-    entry["methods"] = {name: {k: stats[k] for k in ("psnr", "ssim", "if_ssim") if k in stats}
-                        for name, stats in result["methods"].items()}
+    entry["methods"] = scores(result["methods"])
+    entry["sequences"] = {seq: scores(e["methods"]) for seq, e in result["sequences"].items()}
     entry["frames"] = result.get("frames")
+    if args.compare and float(own_scale(args.compare)) == float(scale):
+        compare_json = out_json.with_name(f"{out_json.stem}_compare.json")
+        compared = evaluated(eval_command(args.compare, data, scale, compare_json, args, ["model"]), compare_json, args.resume)
+        if compared is not None:
+            entry["compare"] = {"model": args.compare, **scores(compared["methods"])["model"]}
     return entry
 
 
+def eval_command(model: str, data: Path, scale, out_json: Path, args, methods: list[str] | None = None) -> list[str]:
+    """The ``mnss-kit eval`` arguments of one mode (``methods``: eval's default when None)."""
+    command = ["eval", model, "--data", str(data), "--scale", str(scale), "--json", str(out_json),
+               "--reference", args.reference]
+    if methods:
+        command += ["--methods", *methods]
+    if args.max_frames:
+        command += ["--max-frames", str(args.max_frames)]
+    if args.no_progress:
+        command.append("--no-progress")
+    return command
+
+
+def trained_scales(model: str) -> list:
+    """The scales of the checkpoint's training data (from its record and the data's meta.json; empty
+    when the data is not on this machine)."""
+    from mnss_kit.model.checkpoint import read_record
+    from mnss_kit.train.run import data_scales
+
+    if model == "none":
+        return []
+    dirs = [REPO / d for d in (read_record(model)[0].get("train") or {}).get("train_data") or []]
+    return data_scales([d for d in dirs if d.is_dir()])
+
+
+def evaluated(command: list[str], out_json: Path, resume: bool) -> dict | None:
+    """``mnss-kit eval`` (``command``) writing ``out_json``, or the JSON already there with ``resume``
+    when it was made by the same command; None when eval failed."""
+    made_by = {"command": command, "checkpoint": checkpoint_digest(command[1])}
+    if resume and out_json.is_file():
+        result = json.loads(out_json.read_text())
+        if result.get("made_by") == made_by:
+            return result
+    if out_json.exists():
+        out_json.unlink()  # eval refuses to overwrite; a new run of the script evaluates again
+    if cli(command) != 0:
+        return None
+    result = json.loads(out_json.read_text())
+    atomic_write_json(out_json, {**result, "made_by": made_by})
+    return result
+
+
+def checkpoint_digest(model: str) -> str | None:
+    """The sha256 of checkpoint ``model`` (None for ``none``): a retrained file is another model."""
+    from mnss_kit.model.checkpoint import digest
+
+    return None if model == "none" else digest(model)
+
+
+def scores(methods: dict) -> dict:
+    """PSNR / SSIM / IF-SSIM of each method of an eval JSON's ``methods``."""
+    return {name: {k: stats[k] for k in ("psnr", "ssim", "if_ssim") if k in stats} for name, stats in methods.items()}
+
+
+def own_scale(model: str):
+    """The scale checkpoint ``model`` was made for (a 2x-only model's 2)."""
+    from mnss_kit.split.inputs import load_model
+
+    return load_model(model)[0].scale
+
+
+UNTRAINED_SLACK_DB = 0.2  # an untrained mode's margin against its trained neighbours' mean
+COMPARE_SLACK_DB = 0.1  # what the modes checkpoint may lose against a single-scale one at its scale
 QUALITY = (("psnr", 2), ("ssim", 4), ("if_ssim", 4))  # each cell's metrics, with their decimals
 COMPARED = (("model", "model"), ("taau", "TAAU"), ("bicubic", "bicubic"))  # eval's method names, as the page names them
 
@@ -160,7 +221,10 @@ def quality_table(entries: list[dict]) -> list[str]:
     """One set: per mode PSNR / SSIM / IF-SSIM of the model, TAAU and bicubic, and the model's margin over TAAU."""
     shown = [(key, name) for key, name in COMPARED if any(key in e.get("methods", {}) for e in entries)]
     margin = any("model" in e.get("methods", {}) for e in entries)
-    header = ["mode", "frames", *(name for _, name in shown)] + (["model - TAAU"] if margin else [])
+    compared = next((e["compare"]["model"] for e in entries if "compare" in e), None)
+    header = ["mode", "frames", *(name for _, name in shown)]
+    header += ["model - TAAU", "sequences below TAAU"] if margin else []
+    header += [f"`{portable_path(compared)}` (PSNR)"] if compared else []
     lines = ["| " + " | ".join(header) + " |", "|---|" + "---:|" * (len(header) - 1)]
     for e in entries:
         methods = e.get("methods", {})
@@ -171,8 +235,59 @@ def quality_table(entries: list[dict]) -> list[str]:
         cells += [_scores(methods.get(key, {})) for key, _ in shown]
         if margin:
             cells.append(_margins(methods.get("model", {}), methods.get("taau", {})))
+            below = below_taau(e)
+            cells.append(", ".join(f"{seq} ({gap:+.2f} dB)" for seq, gap in below.items()) or "none")
+        if compared:
+            cells.append(f"{e['compare']['psnr']:.2f}" if "compare" in e else "-")
         lines.append("| " + " | ".join(cells) + " |")
     return lines
+
+
+def below_taau(entry: dict) -> dict[str, float]:
+    """The sequences whose model PSNR is below TAAU's, with the gap (dB)."""
+    gaps = {seq: m["model"]["psnr"] - m["taau"]["psnr"] for seq, m in entry.get("sequences", {}).items()
+            if "model" in m and "taau" in m}
+    return {seq: gap for seq, gap in gaps.items() if gap < 0}
+
+
+def margin_of(entry: dict) -> float | None:
+    methods = entry.get("methods", {})
+    return methods["model"]["psnr"] - methods["taau"]["psnr"] if "model" in methods and "taau" in methods else None
+
+
+def checks(summary: dict) -> list[str]:
+    """The issue's floors per set and variant: no sequence below TAAU at any mode; an untrained mode's
+    margin within UNTRAINED_SLACK_DB of the mean of its neighbouring trained modes'; at the compared
+    model's scale, at most COMPARE_SLACK_DB below it."""
+    trained = summary.get("trained_scales") or []
+    lines = []
+    groups: dict = {}
+    for e in summary["entries"]:
+        groups.setdefault((e["set"], e.get("variant", JITTERED)), []).append(e)
+    for (set_name, variant), entries in groups.items():
+        margins = {e["scale"]: margin_of(e) for e in entries if margin_of(e) is not None}
+        if not margins:
+            continue
+        below = [f"{scale_label(e['scale'])}: {', '.join(below_taau(e))}" for e in entries if below_taau(e)]
+        lines.append(f"- `{set_name}`, {VARIANT_SHORT.get(variant, variant)}: "
+                     + (f"below TAAU on {'; '.join(below)} (missed)" if below else "no sequence below TAAU at any mode (met)"))
+        for scale in margins:
+            neighbours = [t for t in (max((t for t in trained if t < scale), default=None),
+                                      min((t for t in trained if t > scale), default=None)) if t in margins]
+            if trained and scale not in trained and neighbours:
+                mean = sum(margins[t] for t in neighbours) / len(neighbours)
+                ok = abs(margins[scale] - mean) <= UNTRAINED_SLACK_DB
+                lines.append(f"  - untrained {scale_label(scale)}: margin {margins[scale]:+.2f} dB against "
+                             f"{mean:+.2f} for {' and '.join(scale_label(t) for t in neighbours)} "
+                             f"(within {UNTRAINED_SLACK_DB} dB: {'met' if ok else 'missed'})")
+        for e in entries:
+            if "compare" in e and "model" in e.get("methods", {}):
+                loss = e["compare"]["psnr"] - e["methods"]["model"]["psnr"]
+                lines.append(f"  - {scale_label(e['scale'])}: {loss:+.2f} dB behind `{portable_path(e['compare']['model'])}` "
+                             f"on the same frames (at most {COMPARE_SLACK_DB}: {'met' if loss <= COMPARE_SLACK_DB else 'missed'})")
+    if trained:
+        lines.append(f"- Trained modes: {', '.join(scale_label(t) for t in trained)} (the checkpoint's training data).")
+    return ["## Checks", "", *lines, ""] if lines else []
 
 
 def cost_table(scales, estimates: dict) -> list[str]:
@@ -202,6 +317,7 @@ def doc_lines(summary: dict, source: str, estimates: dict) -> list[str]:
              "(the frames column counts those each mode was evaluated on).  Each mode is its set rendered at that "
              "scale (`mnss-kit render --scale S`) and evaluated with `mnss-kit eval --scale S`; the margin is the "
              "model's over TAAU.  Each cell: PSNR (dB) / SSIM / IF-SSIM.", ""]
+    lines += checks(summary)
     for (set_name, variant), entries in sets.items():
         lines += [f"## `{set_name}`, {VARIANT_TITLES.get(variant, variant)}", "", *quality_table(entries), ""]
     lines += ["## Cost per mode", "",
@@ -213,6 +329,7 @@ def doc_lines(summary: dict, source: str, estimates: dict) -> list[str]:
     return lines + rounding_note(summary)
 
 
+VARIANT_SHORT = {JITTERED: "jittered", "no_jitter_ldr8_depth8": "no jitter, 8-bit"}
 VARIANT_TITLES = {JITTERED: "jittered (the grid pattern at 2x and 3x, Halton at the fractional modes)",
                   "no_jitter_ldr8_depth8": "no jitter, 8-bit colour and depth"}
 
@@ -247,7 +364,8 @@ def _margins(model: dict, taau: dict) -> str:
 
 def run(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("model", help="checkpoint path, shipped name, or 'none' (the baselines only)")
+    parser.add_argument("model", nargs="?", help="checkpoint path, shipped name, or 'none' (the baselines only; "
+                        "not with --doc-only, which takes the one modes.json names)")
     parser.add_argument("--out", type=Path, required=True, help="directory for the eval JSONs and modes.json")
     parser.add_argument("--data-root", type=Path, default=Path("data/modes"),
                         help="where each set and mode is rendered (default: data/modes)")
@@ -260,12 +378,16 @@ def run(argv: list[str] | None = None) -> int:
     parser.add_argument("--reference", default="box", choices=("box", "taa", "4x"), help="eval --reference (default: box)")
     parser.add_argument("--max-frames", type=int, help="evaluate at most N frames of each sequence")
     parser.add_argument("--no-progress", action="store_true")
+    parser.add_argument("--compare", metavar="CHECKPOINT", help="also evaluate this model at its own scale (a 2x-only one at 2x) on the same frames")
+    parser.add_argument("--resume", action="store_true", help="keep the eval JSONs in OUT made by the same command and checkpoint")
     parser.add_argument("--doc", type=Path, metavar="FILE", help="also write the quality-mode table (markdown) to FILE")
     parser.add_argument("--doc-only", action="store_true", help="write --doc from OUT/modes.json (and the model it names) without evaluating")
     args = parser.parse_args(argv)
     try:
         if args.doc_only:
             return write_doc_only(args)
+        if not args.model:
+            raise UserError("give the model to evaluate (a checkpoint, a shipped name or 'none')")
         sets = parse_sets(args.sets)
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
@@ -273,7 +395,8 @@ def run(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     entries = [run_mode(args.model, config, scale, variant, args)
                for config, modes in sets.items() for variant in args.variants for scale in modes]
-    summary = {"model": args.model, "reference": args.reference, "max_frames": args.max_frames, "entries": entries}
+    summary = {"model": args.model, "reference": args.reference, "max_frames": args.max_frames,
+               "trained_scales": trained_scales(args.model), "entries": entries}
     atomic_write_json(args.out / "modes.json", summary)
     for e in entries:
         means = "; ".join(f"{name} {m['psnr']:.2f} dB" for name, m in e.get("methods", {}).items() if "psnr" in m)

@@ -4,12 +4,16 @@ The checkpoint (a shipped name such as ``mnss_x2`` or a ``.pt`` path) must be of
 model family and scale, and every tensor of the config's model must exist in it with the same
 shape; otherwise a one-line UserError names the first difference.  Settings that change no
 tensor (activations, the history source) may differ: the config's win, and they are logged.
+One exception: a model that reads inputs the checkpoint's did not (ntaau_lr's ``scale_input``,
+the 1/s map, appended after its other inputs) starts with zero weights on them, so it begins as
+the checkpoint's function at every scale.
 """
 
 from __future__ import annotations
 
 import logging
 
+import torch
 from torch import nn
 
 from ..config import to_dict
@@ -28,7 +32,7 @@ def initial_weights(config, name_or_path: str) -> tuple[dict, dict]:
     if record.get("family") != config.family or record.get("scale") != model.scale:
         raise UserError(f"--init {name_or_path}: a {record.get('family')} x{record.get('scale')} checkpoint cannot "
                         f"start a {config.family} x{model.scale} model")
-    weights = source.state_dict()
+    weights = _with_added_inputs(model.state_dict(), source.state_dict(), _added_inputs(model, source))
     _check_tensors(model.state_dict(), weights, name_or_path)
     saved = to_dict(model_config_from_dict(record["config"]))  # keys added since the record read as defaults
     differing = sorted(k for k, v in to_dict(config).items() if saved.get(k) != v)
@@ -36,6 +40,27 @@ def initial_weights(config, name_or_path: str) -> tuple[dict, dict]:
         log.info("--init %s: model.%s differ from the checkpoint's (no tensor changes shape; the config's are used)",
                  name_or_path, ", model.".join(differing))
     return weights, checkpoint.identity(name_or_path, record)
+
+
+def _added_inputs(model: nn.Module, source: nn.Module) -> int:
+    """Input channels the config's model reads beyond the checkpoint's (the 1/s map of ``scale_input``)."""
+    ours, theirs = getattr(model.config, "scale_input", False), getattr(source.config, "scale_input", False)
+    return int(ours) - int(theirs) if ours and not theirs else 0
+
+
+def _with_added_inputs(ours: dict, theirs: dict, added: int) -> dict:
+    """``theirs`` with zero weights appended for ``added`` trailing input channels of the first layer
+    (the one tensor whose input count differs by exactly ``added``)."""
+    if not added:
+        return theirs
+    widened = dict(theirs)
+    for key, tensor in ours.items():
+        source = theirs.get(key)
+        if (source is not None and tensor.dim() == 4 and source.dim() == 4 and tensor.shape[0] == source.shape[0]
+                and tensor.shape[1] == source.shape[1] + added and tensor.shape[2:] == source.shape[2:]):
+            zeros = source.new_zeros((source.shape[0], added, *source.shape[2:]))
+            widened[key] = torch.cat([source, zeros], dim=1)
+    return widened
 
 
 def _check_tensors(ours: dict, theirs: dict, name: str) -> None:

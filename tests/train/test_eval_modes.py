@@ -87,3 +87,13 @@ def test_a_frame_scale_checkpoint_runs_at_every_mode(tiny_config, tmp_path, monk
     assert [e["scale"] for e in entries] == [1.5, 2] and all("model" in e["methods"] for e in entries)
     result = json.loads((out / "tiny_modes_x1.5.json").read_text())
     assert result["model"]["scale"] == 1.5
+    # a 2x-only model beside it at 2x, the floors checked on the page; --resume keeps the JSONs
+    assert script.run([str(ckpt), "--out", str(out), "--data-root", str(data), "--sets", f"{tiny_config}=1.5,2",
+                       "--no-progress", "--max-frames", "2", "--variants", "jittered", "--compare", "ntaau_lr_x2",
+                       "--resume", "--doc", str(tmp_path / "modes.md")]) == 0
+    entries = json.loads((out / "modes.json").read_text())["entries"]
+    assert "compare" not in entries[0] and entries[1]["compare"]["model"] == "ntaau_lr_x2"
+    assert set(entries[1]["sequences"]["arena_modes"]) >= {"model", "taau", "bicubic"}
+    page = (tmp_path / "modes.md").read_text()
+    assert "## Checks" in page and "behind `ntaau_lr_x2` on the same frames" in page
+    assert "Trained modes: x1.5, x2" in page

@@ -64,3 +64,20 @@ def test_a_config_names_the_run_it_fine_tunes(write_experiment, tmp_path, capsys
     err = capsys.readouterr().err
     assert "train.init" in err and "train that run first" in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "next").exists()
+
+
+def test_a_scale_input_model_starts_as_the_checkpoint_without_it():
+    """The 1/s input a modes model adds starts with zero weights: its steering equals the 2x checkpoint's."""
+    from mnss_kit.model.config import model_config_from_dict
+    from mnss_kit.train.init import initial_weights
+
+    shipped, record = checkpoint.load("ntaau_lr_x2")
+    config = model_config_from_dict(record["config"] | {"scale_input": True})
+    weights, identity = initial_weights(config, "ntaau_lr_x2")
+    modes = build_model(config)
+    modes.load_state_dict(weights)
+    assert identity["path"] == "ntaau_lr_x2"
+    features = torch.rand(1, 9, 16, 16)
+    with torch.no_grad():
+        assert torch.equal(modes.steer(features), shipped.steer(features[:, :8]))
+        assert modes.steer.encode[0].weight[:, 8].abs().sum() == 0
