@@ -50,7 +50,7 @@ def test_page_states_its_source_and_is_generated(page, tmp_path):
 
 def test_quality_rows_and_margin_over_taau(page):
     assert row(page, "x1.5 | 48") == ["x1.5", "48", "33.00 / 0.9500 / 0.9700", "32.50 / 0.9400 / 0.9750",
-                                      "30.00 / 0.9000 / 0.9300", "+0.50 / +0.0100 / -0.0050"]
+                                      "30.00 / 0.9000 / 0.9300", "+0.50 / +0.0100 / -0.0050", "none"]
     assert row(page, "x2 | 48")[5] == "+1.00 / +0.0100 / -0.0050"
     assert "20.00" not in page, "the model without history is not one of the compared methods"
 
@@ -76,3 +76,28 @@ def test_doc_only_without_results_is_one_line(script, tmp_path, capsys):
     assert script.run(["x", "--out", str(tmp_path), "--doc-only", "--doc", str(tmp_path / "m.md")]) == 2
     assert capsys.readouterr().err.strip().count("\n") == 0
     assert not (tmp_path / "m.md").exists()
+
+
+def test_checks_name_sequences_below_taau_the_untrained_modes_and_the_2x_comparison(script, tmp_path):
+    def with_sequences(e: dict, gaps: dict) -> dict:
+        e["sequences"] = {seq: {"model": scores(30.0 + gap, 0.9, 0.9), "taau": scores(30.0, 0.9, 0.9)}
+                          for seq, gap in gaps.items()}
+        return e
+
+    at_2 = with_sequences(entry(tmp_path, 2, 31.0, 30.0, 28.0), {"town": -0.25, "arena": 0.5})
+    at_2["compare"] = {"model": "ntaau_lr_x2", **scores(31.3, 0.95, 0.97)}
+    entries = [with_sequences(entry(tmp_path, 1.5, 33.0, 32.5, 30.0), {"town": 0.1}),
+               with_sequences(entry(tmp_path, 1.7, 33.0, 32.2, 30.0), {"town": 0.1}), at_2,
+               with_sequences(entry(tmp_path, 2.5, 31.0, 30.2, 28.0), {"town": 0.1}),
+               with_sequences(entry(tmp_path, 3, 30.0, 29.4, 28.0), {"town": 0.1})]
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "modes.json").write_text(json.dumps({"model": "ntaau_lr_x2", "reference": "box", "max_frames": 16,
+                                                "trained_scales": [1.5, 1.7, 2, 3], "entries": entries}))
+    assert script.run(["--out", str(out), "--doc-only", "--doc", str(tmp_path / "modes.md")]) == 0
+    page = (tmp_path / "modes.md").read_text()
+    assert "below TAAU on x2: town (missed)" in page
+    # 2.5 is +0.80 against the mean of 2's +1.00 and 3's +0.60
+    assert "untrained x2.5: margin +0.80 dB against +0.80 for x2 and x3 (within 0.2 dB: met)" in page
+    assert "x2: +0.30 dB behind `ntaau_lr_x2` on the same frames (at most 0.1: missed)" in page
+    assert row(page, "x2 | 48")[6:] == ["town (-0.25 dB)", "31.30"]
