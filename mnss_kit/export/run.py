@@ -74,7 +74,7 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
     clock.lap("load")
     if npu is None:
         npu = quantize_at(model, Path(ckpt).stem, request.data, hr_size, request.method, request.progress,
-                          jitter=checkpoint.bundle_pattern(record))
+                          jitter=checkpoint.bundle_pattern(record, model.scale))
     clock.lap("quantize")
     tflite = read_tflite(npu.tflite)
     _check_npu_io(tflite)
@@ -84,7 +84,7 @@ def export(request: ExportRequest, timings: dict[str, float] | None = None) -> d
     extra = {"hr_size": hr_size} if fractional else {}  # integer scales: every family's plan as before
     plan = family_of(model).gpu_plan(model.config, state, lr_size, npu_io, request.profile, **extra)
     _check_boundary_sizes(tflite, plan)
-    pattern = checkpoint.bundle_pattern(record)
+    pattern = checkpoint.bundle_pattern(record, model.scale)
     inputs = [r["name"] for r in plan["resources"] if r["role"] == "input"]
     frames, golden_source = golden_input_frames(request, lr_size, model.scale, pattern, inputs)
     log.info("running %d golden frames at %dx%d", len(frames), *hr_size)

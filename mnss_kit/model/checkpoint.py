@@ -58,10 +58,16 @@ def trained_patterns(record: dict) -> list[str]:
     return list(dict.fromkeys(pattern_name(p) for p in str(record.get("jitter_pattern") or "").split(",") if p))
 
 
-def bundle_pattern(record: dict) -> str:
+def bundle_pattern(record: dict, scale=None) -> str:
     """The jitter pattern a bundle of this checkpoint asks the engine for: the toolkit's grid
-    pattern when it was trained on it (or the record names none), else the first it was trained on."""
+    pattern when it was trained on it (or the record names none), else the first it was trained on.
+    At a ``scale`` the grid has no order for (a quality mode such as 1.7), Halton in its place."""
+    from ..ops.jitter import GRID_SCALES
+
     patterns = trained_patterns(record)
+    if scale is not None and float(scale) not in GRID_SCALES:
+        usable = [p for p in patterns if p != "grid"]
+        return "halton" if not usable or "halton" in usable else usable[0]
     return "grid" if not patterns or "grid" in patterns else patterns[0]
 
 

@@ -64,7 +64,7 @@ def quantize(request: QuantizeRequest):
         if r.eval_data:  # fail before the slow part
             open_data(r.eval_data, model.scale, "evaluation", family)
         data = r.data if r.data else render_calibration_data(Path(tmp), progress=r.progress, scale=model.scale,
-                                                             jitter=bundle_pattern(record))
+                                                             jitter=bundle_pattern(record, model.scale))
         sequences = open_data(data, model.scale, family=family)
         log.info("recording %d NPU-stage inputs from recurrent runs on %s", r.frames, data)
         samples = calibration_samples(model, sequences, r.frames, progress=r.progress)

@@ -7,6 +7,9 @@ encoder-decoder at LR that steers TAAU from depth and motion evidence with a spa
 history at least TAAU's on still pixels, trained by ``mnss-kit train ntaau_lr_x2`` on
 ``train_engine_x2`` and its engine variant against the 16-sample box reference (docs/results.md,
 docs/results_engine.md, docs/studies/ntaau_lr.md).
+``ntaau_lr_modes.pt``: one checkpoint for the quality modes (1.5x, 1.7x, 2x, 3x and between), the
+default's design reading 1/s as one more input, trained by ``mnss-kit train ntaau_lr_modes`` from
+``ntaau_lr_x2`` on ``train_modes_x2`` and ``train_engine_x2`` (docs/modes.md).
 ``ntaau_x2.pt`` (the default before it) and ``ntaau_x2_fast.pt``: the configs of the
 same names, small nets that steer the toolkit's TAAU and its display filter, trained by
 ``mnss-kit train ntaau_x2_base`` then ``ntaau_x2``, which fine-tunes it (and the same for

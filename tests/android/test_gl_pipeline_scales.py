@@ -1,7 +1,8 @@
 """The app's GL frame pipeline (android/core on Mesa through JOGL) over ntaau_lr bundles at
 fractional scales (issue 44): every tensor the GL side produces matches the golden values, as in
 test_gl_pipeline.py.  A small 1.5x bundle (96x54 from 64x36), then the quality modes at 1280x720
-output: 1.5x (LR 853x480) and 1.7x (LR 753x424, round half up of 752.9 and 423.5)."""
+output with the shipped quality-mode checkpoint ntaau_lr_modes: 1.5x (LR 853x480) and 1.7x (LR 753x424,
+round half up of 752.9 and 423.5)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,9 @@ from java_harness import run_gl_pipeline
 from mnss_kit.ops.scale import lr_size_for
 
 
-def _bundle(tmp_path, scale: str, lr_size, hr_size, golden_frames: int, model_scale=None, scale_input: bool = False):
+def _bundle(tmp_path, scale: str, lr_size, hr_size, golden_frames: int, model_scale=None, scale_input: bool = False,
+            shipped: str | None = None):
+    """A bundle at ``scale`` of a random ntaau_lr net (or of the ``shipped`` checkpoint)."""
     import torch
 
     from mnss_kit.cli import main
@@ -27,7 +30,7 @@ def _bundle(tmp_path, scale: str, lr_size, hr_size, golden_frames: int, model_sc
     torch.manual_seed(0)
     config = NTAAULRConfig(scale=model_scale or float(scale), width=8, mid_layers=1, scale_input=scale_input)
     model = randomise_convs(build_model(config), noise=0.5)
-    ckpt = checkpoint.save(tmp_path / "ntaau_lr.pt", model, {"jitter_pattern": "halton"})
+    ckpt = shipped or checkpoint.save(tmp_path / "ntaau_lr.pt", model, {"jitter_pattern": "halton"})
     bundle = tmp_path / "bundle"
     assert main(["export", str(ckpt), "--out", str(bundle), "--resolution", f"{hr_size[0]}x{hr_size[1]}", "--scale", scale,
                  "--data", str(data), "--golden-frames", str(golden_frames), "--no-progress"]) == 0
@@ -62,7 +65,9 @@ def test_a_scale_input_bundle_packs_nine_channels_on_mesa(gl_classes, java_core,
 @pytest.mark.slow
 @pytest.mark.parametrize("scale, lr_size", [("1.5", (853, 480)), ("1.7", (753, 424))], ids=["1.5", "1.7"])
 def test_quality_modes_at_1280x720_run_exactly_on_mesa(gl_classes, tmp_path, capsys, scale, lr_size):
-    bundle, manifest = _bundle(tmp_path, scale, (40, 24) if scale == "1.7" else (64, 36), (1280, 720), 2)
+    bundle, manifest = _bundle(tmp_path, scale, (40, 24) if scale == "1.7" else (64, 36), (1280, 720), 2,
+                               shipped="ntaau_lr_modes")
+    assert manifest["model"]["id"] == "ntaau_lr_modes"
     assert manifest["lr_size"] == list(lr_size)
     tensors, values = run_gl_pipeline(gl_classes, bundle)
     with capsys.disabled():

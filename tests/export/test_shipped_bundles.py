@@ -11,7 +11,7 @@ from mnss_kit.cli import main
 from mnss_kit.model.checkpoint import shipped_names
 
 
-@pytest.mark.parametrize("name", ["ntaau_x2", "ntaau_x2_fast", "ntaau_lr_x2"])
+@pytest.mark.parametrize("name", ["ntaau_x2", "ntaau_x2_fast", "ntaau_lr_x2", "ntaau_lr_modes"])
 def test_a_shipped_ntaau_checkpoint_exports_a_valid_bundle(name, tmp_path, synthetic_dataset):
     assert name in shipped_names()
     out = tmp_path / "bundle"

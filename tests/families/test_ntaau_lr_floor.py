@@ -89,7 +89,7 @@ def test_without_the_floor_a_model_is_as_it_was():
     assert all(torch.equal(a, b) for a, b in zip(floored, unfloored))
 
 
-@pytest.mark.parametrize("name", ["ntaau_lr_x2"])
+@pytest.mark.parametrize("name", ["ntaau_lr_x2", "ntaau_lr_modes"])
 def test_the_shipped_models_keep_a_still_history(name):
     """The shipped ntaau_lr checkpoints are trained with the floor their configs name."""
     from mnss_kit.model import checkpoint

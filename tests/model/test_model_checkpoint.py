@@ -127,6 +127,10 @@ def test_a_checkpoint_trained_on_several_jitter_patterns_names_each_and_bundles_
     assert checkpoint.bundle_pattern(several) == "grid"
     assert checkpoint.bundle_pattern({"jitter_pattern": "center,halton"}) == "center"
     assert checkpoint.trained_patterns({}) == [] and checkpoint.bundle_pattern({}) == "grid"
+    # where the grid has no order (a quality mode, x4), Halton in its place
+    assert checkpoint.bundle_pattern(several, 1.7) == "halton" and checkpoint.bundle_pattern(several, 2) == "grid"
+    assert checkpoint.bundle_pattern({"jitter_pattern": "grid"}, 1.5) == "halton"
+    assert checkpoint.bundle_pattern({"jitter_pattern": "center,grid"}, 4) == "center"
     record, _ = checkpoint.read_record("ntaau_x2")  # the shipped default trains on three patterns
     assert set(checkpoint.trained_patterns(record)) == {"center", "halton", "grid"}
 
