@@ -99,5 +99,5 @@ def test_checks_name_sequences_below_taau_the_untrained_modes_and_the_2x_compari
     assert "below TAAU on x2: town (missed)" in page
     # 2.5 is +0.80 against the mean of 2's +1.00 and 3's +0.60
     assert "untrained x2.5: margin +0.80 dB against +0.80 for x2 and x3 (within 0.2 dB: met)" in page
-    assert "x2: +0.30 dB behind `ntaau_lr_x2` on the same frames (at most 0.1: missed)" in page
+    assert "x2: -0.30 dB against `ntaau_lr_x2` on the same frames (at least -0.1: missed)" in page
     assert row(page, "x2 | 48")[6:] == ["town (-0.25 dB)", "31.30"]

@@ -95,5 +95,5 @@ def test_a_frame_scale_checkpoint_runs_at_every_mode(tiny_config, tmp_path, monk
     assert "compare" not in entries[0] and entries[1]["compare"]["model"] == "ntaau_lr_x2"
     assert set(entries[1]["sequences"]["arena_modes"]) >= {"model", "taau", "bicubic"}
     page = (tmp_path / "modes.md").read_text()
-    assert "## Checks" in page and "behind `ntaau_lr_x2` on the same frames" in page
+    assert "## Checks" in page and "against `ntaau_lr_x2` on the same frames" in page
     assert "Trained modes: x1.5, x2" in page
