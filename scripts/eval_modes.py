@@ -379,7 +379,8 @@ def run(argv: list[str] | None = None) -> int:
     parser.add_argument("--max-frames", type=int, help="evaluate at most N frames of each sequence")
     parser.add_argument("--no-progress", action="store_true")
     parser.add_argument("--compare", metavar="CHECKPOINT", help="also evaluate this model at its own scale (a 2x-only one at 2x) on the same frames")
-    parser.add_argument("--resume", action="store_true", help="keep the eval JSONs in OUT made by the same command and checkpoint")
+    parser.add_argument("--resume", action="store_true", help="keep the eval JSONs in OUT made by the same command and "
+                        "checkpoint, and modes.json's entries of the sets not run again")
     parser.add_argument("--doc", type=Path, metavar="FILE", help="also write the quality-mode table (markdown) to FILE")
     parser.add_argument("--doc-only", action="store_true", help="write --doc from OUT/modes.json (and the model it names) without evaluating")
     args = parser.parse_args(argv)
@@ -395,6 +396,8 @@ def run(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     entries = [run_mode(args.model, config, scale, variant, args)
                for config, modes in sets.items() for variant in args.variants for scale in modes]
+    if args.resume:
+        entries = earlier_entries(args, entries) + entries
     summary = {"model": args.model, "reference": args.reference, "max_frames": args.max_frames,
                "trained_scales": trained_scales(args.model), "entries": entries}
     atomic_write_json(args.out / "modes.json", summary)
@@ -405,6 +408,20 @@ def run(argv: list[str] | None = None) -> int:
         write_doc(summary, args.doc, portable_path(args.out / "modes.json"))
     failed = [e for e in entries if "error" in e]
     return 1 if failed else 0
+
+
+def earlier_entries(args, entries: list[dict]) -> list[dict]:
+    """With --resume, the entries of OUT/modes.json for the same model, reference and frames that this
+    run did not evaluate again (another set run earlier into OUT)."""
+    path = args.out / "modes.json"
+    if not path.is_file():
+        return []
+    earlier = read_json(path)
+    if (earlier.get("reference"), earlier.get("max_frames")) != (args.reference, args.max_frames) or \
+            checkpoint_digest(earlier.get("model", "none")) != checkpoint_digest(args.model):
+        return []
+    now = {(e["set"], e["scale"], e["variant"]) for e in entries}
+    return [e for e in earlier.get("entries", []) if (e["set"], e["scale"], e["variant"]) not in now]
 
 
 def write_doc_only(args) -> int:

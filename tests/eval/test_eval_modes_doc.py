@@ -101,3 +101,17 @@ def test_checks_name_sequences_below_taau_the_untrained_modes_and_the_2x_compari
     assert "untrained x2.5: margin +0.80 dB against +0.80 for x2 and x3 (within 0.2 dB: met)" in page
     assert "x2: -0.30 dB against `ntaau_lr_x2` on the same frames (at least -0.1: missed)" in page
     assert row(page, "x2 | 48")[6:] == ["town (-0.25 dB)", "31.30"]
+
+
+def test_resume_keeps_the_entries_of_sets_run_before(script, tmp_path):
+    from argparse import Namespace
+
+    out = tmp_path / "out"
+    out.mkdir()
+    earlier = [entry(tmp_path, 1.5, 33.0, 32.5, 30.0), entry(tmp_path, 2, 31.0, 30.0, 28.0)]
+    (out / "modes.json").write_text(json.dumps({"model": "ntaau_lr_x2", "reference": "box", "max_frames": 16, "entries": earlier}))
+    args = Namespace(out=out, reference="box", max_frames=16, model="ntaau_lr_x2")
+    unseen = dict(earlier[0], set="unseen_x2")
+    assert script.earlier_entries(args, [unseen, earlier[1]]) == [earlier[0]]
+    assert script.earlier_entries(Namespace(**{**vars(args), "max_frames": 24}), [unseen]) == []
+    assert script.earlier_entries(Namespace(**{**vars(args), "model": "ntaau_x2"}), [unseen]) == [], "another checkpoint"
