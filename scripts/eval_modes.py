@@ -42,6 +42,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from mnss_kit.bench.run import quality_table as eval_quality  # noqa: E402
 from mnss_kit.cli import main as cli  # noqa: E402
 from mnss_kit.errors import UserError  # noqa: E402
 from mnss_kit.fileio import atomic_write_json, atomic_write_text, portable_path, read_json  # noqa: E402
@@ -112,14 +113,12 @@ def run_mode(model: str, config: str, scale, variant: str, args) -> dict:
     result = evaluated(evaluate, out_json, args.resume)
     if result is None:  # the CLI printed the one-line reason (e.g. a model of another scale)
         return {**entry, "error": f"eval failed: mnss-kit {' '.join(evaluate)}"}
-    entry["methods"] = scores(result["methods"])
-    entry["sequences"] = {seq: scores(e["methods"]) for seq, e in result["sequences"].items()}
-    entry["frames"] = result.get("frames")
-    if args.compare and float(own_scale(args.compare)) == float(scale):
+    entry.update(eval_quality(result, result["methods"]), frames=result.get("frames"))
+    if args.compare and float(args.compare_scale) == float(scale):
         compare_json = out_json.with_name(f"{out_json.stem}_compare.json")
         compared = evaluated(eval_command(args.compare, data, scale, compare_json, args, ["model"]), compare_json, args.resume)
         if compared is not None:
-            entry["compare"] = {"model": args.compare, **scores(compared["methods"])["model"]}
+            entry["compare"] = {"model": args.compare, **eval_quality(compared, ["model"])["methods"]["model"]}
     return entry
 
 
@@ -170,11 +169,6 @@ def checkpoint_digest(model: str) -> str | None:
     from mnss_kit.model.checkpoint import digest
 
     return None if model == "none" else digest(model)
-
-
-def scores(methods: dict) -> dict:
-    """PSNR / SSIM / IF-SSIM of each method of an eval JSON's ``methods``."""
-    return {name: {k: stats[k] for k in ("psnr", "ssim", "if_ssim") if k in stats} for name, stats in methods.items()}
 
 
 def own_scale(model: str):
@@ -265,21 +259,13 @@ def checks(summary: dict) -> list[str]:
     for e in summary["entries"]:
         groups.setdefault((e["set"], e.get("variant", JITTERED)), []).append(e)
     for (set_name, variant), entries in groups.items():
-        margins = {e["scale"]: margin_of(e) for e in entries if margin_of(e) is not None}
+        margins = {e["scale"]: m for e in entries if (m := margin_of(e)) is not None}
         if not margins:
             continue
-        below = [f"{scale_label(e['scale'])}: {', '.join(below_taau(e))}" for e in entries if below_taau(e)]
+        below = [f"{scale_label(e['scale'])}: {', '.join(seqs)}" for e in entries if (seqs := below_taau(e))]
         lines.append(f"- `{set_name}`, {VARIANT_SHORT.get(variant, variant)}: "
                      + (f"below TAAU on {'; '.join(below)} (missed)" if below else "no sequence below TAAU at any mode (met)"))
-        for scale in margins:
-            neighbours = [t for t in (max((t for t in trained if t < scale), default=None),
-                                      min((t for t in trained if t > scale), default=None)) if t in margins]
-            if trained and scale not in trained and neighbours:
-                mean = sum(margins[t] for t in neighbours) / len(neighbours)
-                ok = abs(margins[scale] - mean) <= UNTRAINED_SLACK_DB
-                lines.append(f"  - untrained {scale_label(scale)}: margin {margins[scale]:+.2f} dB against "
-                             f"{mean:+.2f} for {' and '.join(scale_label(t) for t in neighbours)} "
-                             f"(within {UNTRAINED_SLACK_DB} dB: {'met' if ok else 'missed'})")
+        lines += untrained_checks(margins, trained)
         for e in entries:
             if "compare" in e and "model" in e.get("methods", {}):
                 gap = e["methods"]["model"]["psnr"] - e["compare"]["psnr"]
@@ -288,6 +274,22 @@ def checks(summary: dict) -> list[str]:
     if trained:
         lines.append(f"- Trained modes: {', '.join(scale_label(t) for t in trained)} (the checkpoint's training data).")
     return ["## Checks", "", *lines, ""] if lines else []
+
+
+def untrained_checks(margins: dict, trained: list) -> list[str]:
+    """Each untrained mode's margin against the mean of its nearest trained modes' on either side."""
+    lines = []
+    for scale in (s for s in margins if trained and s not in trained):
+        neighbours = [t for t in (max((t for t in trained if t < scale), default=None),
+                                  min((t for t in trained if t > scale), default=None)) if t in margins]
+        if not neighbours:
+            continue
+        mean = sum(margins[t] for t in neighbours) / len(neighbours)
+        ok = abs(margins[scale] - mean) <= UNTRAINED_SLACK_DB
+        lines.append(f"  - untrained {scale_label(scale)}: margin {margins[scale]:+.2f} dB against "
+                     f"{mean:+.2f} for {' and '.join(scale_label(t) for t in neighbours)} "
+                     f"(within {UNTRAINED_SLACK_DB} dB: {'met' if ok else 'missed'})")
+    return lines
 
 
 def cost_table(scales, estimates: dict) -> list[str]:
@@ -394,6 +396,7 @@ def run(argv: list[str] | None = None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
+    args.compare_scale = own_scale(args.compare) if args.compare else None  # loaded once, not per mode
     entries = [run_mode(args.model, config, scale, variant, args)
                for config, modes in sets.items() for variant in args.variants for scale in modes]
     if args.resume:

@@ -45,7 +45,7 @@ def initial_weights(config, name_or_path: str) -> tuple[dict, dict]:
 def _added_inputs(model: nn.Module, source: nn.Module) -> int:
     """Input channels the config's model reads beyond the checkpoint's (the 1/s map of ``scale_input``)."""
     ours, theirs = getattr(model.config, "scale_input", False), getattr(source.config, "scale_input", False)
-    return int(ours) - int(theirs) if ours and not theirs else 0
+    return 1 if ours and not theirs else 0
 
 
 def _with_added_inputs(ours: dict, theirs: dict, added: int) -> dict:
