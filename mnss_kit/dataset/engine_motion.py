@@ -56,10 +56,15 @@ def packed8(motion: np.ndarray) -> np.ndarray:
     return (unpack_motion8(*pack_motion8(motion / size)) * size).astype(np.float32)
 
 
+HALF_MAX = float(np.finfo(np.float16).max)
+
+
 def half_float(motion: np.ndarray) -> np.ndarray:
-    """Canonical motion after a round trip through 16-bit floats in UV units."""
+    """Canonical motion after a round trip through 16-bit floats in UV units, saturated at the
+    format's largest value: a cast past it would give inf, which no reader should have to mend."""
     size = np.array(motion.shape[1::-1], np.float64)
-    return ((motion / size).astype(np.float16).astype(np.float64) * size).astype(np.float32)
+    uv = np.clip(motion / size, -HALF_MAX, HALF_MAX)
+    return (uv.astype(np.float16).astype(np.float64) * size).astype(np.float32)
 
 
 def dilated(motion: np.ndarray, depth: np.ndarray) -> np.ndarray:

@@ -46,6 +46,16 @@ def test_half_rounds_uv_motion_to_float16():
     assert not np.array_equal(em.half_float(motion), motion)
 
 
+def test_half_saturates_motion_beyond_its_range():
+    motion = np.full((2, 4, 2), 1e9, np.float32)
+    motion[0, 0] = -1e9
+    with np.errstate(over="raise"):
+        got = em.half_float(motion)
+    assert np.isfinite(got).all()
+    np.testing.assert_allclose(got[1, 1], em.HALF_MAX * np.array([4.0, 2.0]), rtol=1e-3)
+    assert np.all(got[0, 0] < 0)
+
+
 def test_dilation_takes_the_nearest_depth_neighbour():
     depth = np.full((5, 6), 0.5, np.float32)
     depth[2, 3] = 0.1  # one near pixel
