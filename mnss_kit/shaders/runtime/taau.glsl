@@ -28,10 +28,10 @@ vec4 cubic_weights(float t) {
     return mix(far, near, vec4(lessThanEqual(d, vec4(1.0))));
 }
 
-// Jitter-aware bicubic of the LR colour at HR texel `hr` (ops.taau.bicubic_upsample), YCoCg.
-vec3 spatial_at(highp sampler2D color, ivec2 hr, vec2 jitter, int scale) {
+// Bicubic (CUBIC_A) of the LR colour at `u` in LR pixels from the first texel centre, 4x4 taps
+// clamped to the edge, YCoCg: the spatial fallback of every TAAU at every scale.
+vec3 bicubic_lr_at(highp sampler2D color, vec2 u) {
     ivec2 size = textureSize(color, 0);
-    vec2 u = (vec2(hr) + 0.5) / float(scale) - jitter - 0.5;
     vec2 base = floor(u);
     vec4 wx = cubic_weights(u.x - base.x);
     vec4 wy = cubic_weights(u.y - base.y);
@@ -45,6 +45,11 @@ vec3 spatial_at(highp sampler2D color, ivec2 hr, vec2 jitter, int scale) {
         }
     }
     return rgb_to_ycocg(acc);
+}
+
+// Jitter-aware bicubic of the LR colour at HR texel `hr` (ops.taau.bicubic_upsample), YCoCg.
+vec3 spatial_at(highp sampler2D color, ivec2 hr, vec2 jitter, int scale) {
+    return bicubic_lr_at(color, (vec2(hr) + 0.5) / float(scale) - jitter - 0.5);
 }
 
 // The Gaussian-weighted mean of the 3x3 LR samples around HR texel `hr` (YCoCg, rgb) and their

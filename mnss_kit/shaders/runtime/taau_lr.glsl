@@ -86,21 +86,8 @@ vec2 resized_motion_at(highp sampler2D motion, ivec2 hr, ivec2 hr_size) {
 
 // Jitter-aware bicubic at HR texel `hr` of an `hr_size` image (ops.taau.bicubic_upsample at any scale), YCoCg.
 vec3 spatial_ratio_at(highp sampler2D color, ivec2 hr, vec2 jitter, ivec2 hr_size) {
-    ivec2 size = textureSize(color, 0);
-    vec2 u = (vec2(hr) + 0.5) * (vec2(size) / vec2(hr_size)) - jitter - 0.5;
-    vec2 base = floor(u);
-    vec4 wx = cubic_weights(u.x - base.x);
-    vec4 wy = cubic_weights(u.y - base.y);
-    ivec2 b = ivec2(base);
-    vec3 acc = vec3(0.0);
-    for (int a = 0; a < 4; a++) {
-        int row = clamp(b.y + a - 1, 0, size.y - 1);
-        for (int c = 0; c < 4; c++) {
-            int col = clamp(b.x + c - 1, 0, size.x - 1);
-            acc += (wy[a] * wx[c]) * colour_texel(color, ivec2(col, row));
-        }
-    }
-    return rgb_to_ycocg(acc);
+    vec2 size = vec2(textureSize(color, 0));
+    return bicubic_lr_at(color, (vec2(hr) + 0.5) * (size / vec2(hr_size)) - jitter - 0.5);
 }
 
 // ops.taau.nearby_samples and the clamp box at any scale: the 3x3 LR samples around HR texel
