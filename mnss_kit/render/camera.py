@@ -23,8 +23,9 @@ angles and fov follow a cubic Hermite spline with finite-difference
 keyframes before it are not used after it, and the first frame at or after
 its time is flagged ``reset`` in the dataset.  A frame is also flagged ``reset``
 when the camera jumped so far since the previous frame that the point it looks at
-lay outside the previous view (``view_jumped``: a whip pan or a fast pan squeezed
-into one frame): most of such a frame has no history, as after a cut.  The point
+lay outside the previous view, or that most of the image moved by more than half
+of it (``view_jumped``: a whip pan or a fast pan squeezed into one frame): most of
+such a frame has no history, as after a cut.  The point
 looked at is ``look_at`` (its distance is interpolated as 1 / distance), or the
 view axis at infinity for ``yaw``/``pitch`` keyframes.
 """
@@ -129,16 +130,38 @@ def jittered(proj: np.ndarray, jitter, size: tuple[int, int]) -> np.ndarray:
     return shift @ proj
 
 
+JUMP_GRID = 8  # an 8x8 grid of points across the image stands for its pixels in view_jumped
+
+
 def view_jumped(prev: CameraState, cur: CameraState, aspect: float) -> bool:
-    """The point ``cur`` looks at lay outside ``prev``'s frame, or behind ``prev``: the camera turned
-    by more than half the field of view, or moved the point looked at off the image, in one frame.
-    The motion of most pixels then leaves the image (no history), which is what a cut means to an upscaler."""
+    """The camera jumped in one frame: the point ``cur`` looks at lay outside ``prev``'s frame or
+    behind it (it turned by more than half the field of view, or moved the point off the image),
+    or most of the image moved by more than half its size on an axis (``data check`` refuses such
+    motion).  The image is taken at the distance of the point looked at.  The motion of most pixels
+    then leaves the image (no history), which is what a cut means to an upscaler."""
     forward = -cur.view()[2, :3]
     focus = np.append(cur.position * cur.inverse_focus + forward, cur.inverse_focus)  # homogeneous; w = 0 at infinity
-    clip = perspective(prev.fov, aspect, 1.0, 2.0) @ prev.view() @ focus
-    if clip[3] <= 0.0:
+    to_prev = perspective(prev.fov, aspect, 1.0, 2.0) @ prev.view()
+    clip = to_prev @ focus
+    if clip[3] <= 0.0 or max(abs(clip[0]), abs(clip[1])) > clip[3]:
         return True
-    return bool(max(abs(clip[0]), abs(clip[1])) > clip[3])
+    return _share_moved_over_half(to_prev, cur, aspect, focus) > 0.5
+
+
+def _share_moved_over_half(to_prev: np.ndarray, cur: CameraState, aspect: float, focus: np.ndarray) -> float:
+    """The share of a JUMP_GRID x JUMP_GRID grid of ``cur``'s image points (at the depth of ``focus``)
+    that lie behind the previous camera or more than half the image away from where they are now."""
+    ndc = (np.arange(JUMP_GRID) + 0.5) / JUMP_GRID * 2.0 - 1.0
+    x, y = (a.ravel() for a in np.meshgrid(ndc, ndc))
+    half_y = math.tan(math.radians(cur.fov) / 2.0)
+    right, up = cur.view()[0, :3], cur.view()[1, :3]
+    directions = focus[:3, None] + (right[:, None] * (x * half_y * aspect) + up[:, None] * (y * half_y))
+    points = np.vstack([directions, np.full(x.size, focus[3])])  # at the focus distance, or at infinity
+    clip = to_prev @ points
+    ahead = clip[3] > 1e-9
+    w = np.where(ahead, clip[3], 1.0)
+    moved = (np.abs(clip[0] / w - x) > 1.0) | (np.abs(clip[1] / w - y) > 1.0) | ~ahead
+    return float(moved.mean())
 
 
 class CameraPath:

@@ -96,6 +96,35 @@ def test_view_jumped_when_the_point_looked_at_leaves_the_previous_view():
     assert view_jumped(state(0, inverse_focus=0.2), state(0, (8.0, 2.0, 0.0), 0.2), aspect)
 
 
+def test_view_jumped_when_most_of_the_image_moves_more_than_half_of_it():
+    """A turn that keeps the point looked at in view but moves most pixels by more than half the
+    image is a jump: data check refuses such motion, so the renderer must flag the frame a reset."""
+    from mnss_kit.render.camera import CameraState, perspective, view_jumped
+
+    def state(yaw, pitch):
+        return CameraState(np.array((0.0, 2.0, 0.0)), yaw, pitch, 0.0, 70.0)
+
+    aspect = 16 / 9
+    before, after = state(0, -10.0), state(45, 15.0)
+    looked_at = perspective(70.0, aspect, 1.0, 2.0) @ before.view() @ np.append(-after.view()[2, :3], 0.0)
+    assert max(abs(looked_at[0]), abs(looked_at[1])) < looked_at[3]  # still inside the previous view
+    assert view_jumped(before, after, aspect)
+    assert not view_jumped(before, state(45, -10.0), aspect)  # the same turn without looking up: 42% moved
+
+
+def test_a_squeezed_pan_is_flagged_where_data_check_would_refuse_it():
+    """unseen_x2's factory_u2 at 16 frames pans up so fast that frame 4 moves 54% of its pixels by more
+    than half the image after the reset on frame 3; frame 4 is a reset too."""
+    from mnss_kit.render.config import load_render_config
+    from mnss_kit.render.run import sequence_meta
+    from mnss_kit.render.scenes import build_scene
+
+    cfg = load_render_config("unseen_x2", ["frames=16"])
+    seq = next(s for s in cfg.sequences if s.name == "factory_u2")
+    resets = [f.index for f in sequence_meta(seq, build_scene(seq, cfg)).frames if f.reset]
+    assert resets == [0, 3, 4, 10]
+
+
 def test_look_at_keyframes_give_the_focus_distance_and_a_whip_pan_breaks_history():
     keys = [KeyframeConfig(0.0, (0, 2, 10), look_at=(0, 2, 0)), KeyframeConfig(1.0, (0, 2, 10), look_at=(0, 2, 5)),
             KeyframeConfig(1.1, (0, 2, 10), look_at=(-10, 2, 10))]
