@@ -26,7 +26,8 @@ def markdown(doc: dict) -> str:
         text = f"**{text}**" if r["config"] == chosen else text
         steps = f"{r['steps']}" + (" (time cap)" if r.get("stopped") == "time_budget" else "")
         ms = [f"{r['device_ms'][d]:.2f}" if r["device_ms"].get(d) is not None else "-" for d in devices]
-        lines.append(f"| {r['config']} | {r['macs_per_pixel']:.0f} | {r['params']} | {r['psnr']:.2f} | {r['ssim']:.4f} | "
+        psnr = f"{r['psnr']:.2f}" + (" (" + ", ".join(f"{x['psnr']:.2f}" for x in r["seeds"]) + ")" if r.get("seeds") else "")
+        lines.append(f"| {r['config']} | {r['macs_per_pixel']:.0f} | {r['params']} | {psnr} | {r['ssim']:.4f} | "
                      f"{r['if_ssim']:.4f} | " + " | ".join(ms) + f" | {steps} | {text} |")
     for name, q in doc["baselines"].items():
         lines.append(f"| {name} (baseline) | 0 | 0 | {q['psnr']:.2f} | {q['ssim']:.4f} | {q['if_ssim']:.4f} | "
@@ -37,8 +38,23 @@ def markdown(doc: dict) -> str:
     facts = (f"At {scale_label(s['scale'])}: trained {s['steps']} steps per rung on {len(s['train_sequences'])} sequence(s); evaluated on "
              f"{len(s['test_sequences'])} held-out sequence(s) never trained on ({', '.join(Path(t).name for t in s['test_sequences'])})"
              + (f", first {s['max_frames']} frames each" if s.get("max_frames") else "")
-             + f". Device milliseconds are estimates at {s['output_size'][0]}x{s['output_size'][1]} output.")
+             + f". Device milliseconds are estimates at {s['output_size'][0]}x{s['output_size'][1]} output."
+             + seed_note(rows))
     return "\n".join([summary, "", facts, "", *lines]) + "\n"
+
+
+def seed_note(rows: list[dict]) -> str:
+    """With several seeds per rung: what the PSNR cells hold, and whether the seeds of one rung differ
+    by more than the rungs' means do (then the choice is within seed noise)."""
+    seeded = [r for r in rows if r.get("seeds")]
+    if not seeded:
+        return ""
+    spread = max(max(x["psnr"] for x in r["seeds"]) - min(x["psnr"] for x in r["seeds"]) for r in seeded)
+    gap = max(r["psnr"] for r in rows) - min(r["psnr"] for r in rows)
+    note = (f" Each rung trained with {len(seeded[0]['seeds'])} seeds: PSNR is their mean, each seed's in brackets; "
+            f"the chosen rung's best seed is the checkpoint exported. The seeds of one rung differ by up to {spread:.2f} dB, "
+            f"the rungs' means by {gap:.2f} dB")
+    return note + (": the choice is within seed noise." if spread > gap else ".")
 
 
 def write_chart(doc: dict, path: Path, title: str = "") -> Path:

@@ -31,6 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "scale none is shipped at, such as 1.5, every config of a family that runs at any scale)")
     parser.add_argument("--steps", type=_positive_int, default=2000, help="training steps per rung (default: %(default)s)")
     parser.add_argument("--minutes", type=float, metavar="M", help="wall-time cap per rung (rows say when it stopped a run)")
+    parser.add_argument("--seeds", type=_positive_int, default=1, metavar="N",
+                        help="train each rung N times (the config's seed, then the next ones) and judge it by the mean; "
+                             "its best seed is the checkpoint export takes (default: %(default)s)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                         help="typed override for every rung, e.g. train.batch_size=8 (repeatable)")
     parser.add_argument("--output-size", default="1280x720", metavar="WxH", help="HR size of the device estimates (default: %(default)s)")
@@ -69,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     request = SizeRequest(data=args.data, targets=targets, out=args.out, test=args.test, held_out=args.held_out,
                           ladder=args.ladder, overrides=args.overrides, steps=args.steps, minutes=args.minutes, budget=budget,
                           output_size=parse_resolution(args.output_size, "--output-size"), max_frames=args.max_frames,
-                          scale=scale, progress=not args.no_progress)
+                          scale=scale, seeds=args.seeds, progress=not args.no_progress)
     doc = run_size(request)
     table = markdown(doc)
     atomic_write_text(args.out / "size.md", table)

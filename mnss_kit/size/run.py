@@ -2,7 +2,9 @@
 model-size ladder on a user's scene and evaluate it on held-out sequences.
 
 Each rung is a model config (``mnss_kit/configs/models/``) trained for the same number of steps on
-the same training sequences into ``OUT/runs/<config>/``.  A rung whose ``model.pt`` was trained
+the same training sequences into ``OUT/runs/<config>/``; with ``seeds`` above 1 also with the
+config's seed plus 1, 2, ... into ``OUT/runs/<config>_seed<seed>/``, and judged by the mean over
+its seeds (one seed can move a short run by more than the rungs differ).  A rung whose ``model.pt`` was trained
 with these settings is reused, a killed rung is resumed from its ``last.pt``, and ``size.json``
 is rewritten atomically after every rung, so a killed ``mnss-kit size`` continues where it stopped.
 """
@@ -38,6 +40,7 @@ class SizeRequest:
     output_size: tuple[int, int] = (1280, 720)  # HR size of the device estimates
     max_frames: int | None = None  # per held-out sequence
     scale: int | float | None = None  # a parsed --scale, which the data must be at (default: the data's)
+    seeds: int = 1  # training runs per rung, judged by their mean
     progress: bool = True
 
 
@@ -56,7 +59,7 @@ def run_size(request: SizeRequest) -> dict:
         "train_sequences": [portable_path(s) for s in train_seqs],
         "test_sequences": [portable_path(s) for s in test_seqs],
         "scale": scale, "overrides": list(request.overrides), "steps": request.steps, "minutes": request.minutes, "max_frames": request.max_frames,
-        "devices": devices, "output_size": list(request.output_size),
+        "devices": devices, "output_size": list(request.output_size), "seeds": request.seeds,
     }
     doc = _resume(request.out / "size.json", settings)
     if not doc["baselines"]:
@@ -64,13 +67,33 @@ def run_size(request: SizeRequest) -> dict:
         doc["baselines"] = _baselines(test_seqs, scale, request)
         atomic_write_json(request.out / "size.json", doc)
     for i, name in enumerate(names, 1):
-        log.info("rung %d/%d: %s", i, len(names), name)
-        checkpoint = train_rung(name, train_seqs, scale, request)
-        digest = sha256_file(checkpoint)
-        if (doc["rows"].get(name) or {}).get("checkpoint_sha256") != digest:
-            doc["rows"][name] = evaluate_rung(name, checkpoint, digest, test_seqs, scale, devices, request)
-            atomic_write_json(request.out / "size.json", doc)
+        runs = []
+        for k in range(request.seeds):
+            log.info("rung %d/%d: %s%s", i, len(names), name, f", seed run {k + 1}/{request.seeds}" if request.seeds > 1 else "")
+            checkpoint = train_rung(name, train_seqs, scale, request, k)
+            digest = sha256_file(checkpoint)
+            runs_done = doc["rows"] if request.seeds == 1 else doc.setdefault("seed_runs", {})
+            key = name if request.seeds == 1 else checkpoint.parent.name
+            if (runs_done.get(key) or {}).get("checkpoint_sha256") != digest:
+                runs_done[key] = evaluate_rung(name, checkpoint, digest, test_seqs, scale, devices, request)
+                atomic_write_json(request.out / "size.json", doc)
+            runs.append(runs_done[key])
+        if request.seeds > 1:
+            doc["rows"][name] = seed_mean(runs)
     return decide(doc, request.targets, request.budget, request.out)
+
+
+SEED_MEANS = ("psnr", "ssim", "if_ssim", "temporal_error", "phase_offset")
+
+
+def seed_mean(runs: list[dict]) -> dict:
+    """One rung's row from its seed runs: the quality means, the best seed's checkpoint (what export
+    takes), and each seed's quality under ``seeds``."""
+    best = max(runs, key=lambda r: r["psnr"])
+    row = {**best, **{k: sum(r[k] for r in runs) / len(runs) for k in SEED_MEANS if all(k in r for r in runs)}}
+    row["seeds"] = [{"seed": r["seed"], "checkpoint": r["checkpoint"], **{k: r[k] for k in ("psnr", "ssim", "if_ssim")}}
+                    for r in runs]
+    return row
 
 
 def decide(doc: dict, targets: list[Target], budget: Budget | None, out: Path) -> dict:
@@ -153,13 +176,15 @@ def rung_experiment(name: str, train_seqs: list[Path], scale: int | float, reque
     return experiment
 
 
-def train_rung(name: str, train_seqs: list[Path], scale: int | float, request: SizeRequest) -> Path:
-    """``OUT/runs/<name>/model.pt``: trained now, resumed, or reused when trained with these settings."""
+def train_rung(name: str, train_seqs: list[Path], scale: int | float, request: SizeRequest, seed_run: int = 0) -> Path:
+    """``OUT/runs/<name>/model.pt`` (``<name>_seed<seed>`` for the ``seed_run``-th run past the first):
+    trained now, resumed, or reused when trained with these settings."""
     from ..model.checkpoint import read_record
     from ..train.run import FINAL, LAST, train
 
     experiment = rung_experiment(name, train_seqs, scale, request)
-    run_dir = request.out / "runs" / name
+    experiment.train.seed += seed_run
+    run_dir = request.out / "runs" / (name if seed_run == 0 else f"{name}_seed{experiment.train.seed}")
     final, last = run_dir / FINAL, run_dir / LAST
     if final.is_file():
         record, _ = read_record(final)
@@ -206,7 +231,8 @@ def evaluate_rung(name: str, checkpoint: Path, digest: str, test_seqs: list[Path
                       progress=request.progress)
     training = record.get("training") or {}
     return json_safe({
-        "config": name, "family": family_of(model).name, **quality(result["methods"]["model"]),
+        "config": name, "family": family_of(model).name, "seed": (record.get("train") or {}).get("seed"),
+        **quality(result["methods"]["model"]),
         **model_cost(model, tuple(devices), tuple(request.output_size)),
         "steps": training.get("steps"), "train_s": training.get("wall_time_s"), "stopped": training.get("stopped"),
         "checkpoint": (checkpoint.relative_to(request.out)).as_posix(), "checkpoint_sha256": digest,

@@ -74,6 +74,25 @@ def test_a_rung_trained_with_other_settings_is_not_taken_for_this_ladder(scene, 
     assert "was trained with other settings" in capsys.readouterr().err
 
 
+def test_seeds_train_each_rung_again_and_judge_it_by_the_mean(scene, sized, tmp_path, capsys):
+    """--seeds 2 reuses each rung's first run, trains one more with the next seed, and takes the mean."""
+    out = tmp_path / "size"
+    shutil.copytree(sized, out)
+    first = read_json(sized / "size.json")["rows"]
+    stamps = {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/model.pt")}
+    assert main(["size", "--data", str(scene / "data"), "--target", "within:100", "--out", str(out), "--seeds", "2", *FAST]) == 0
+    assert {p: p.stat().st_mtime_ns for p in stamps} == stamps  # the first seed's runs are reused
+    doc = read_json(out / "size.json")
+    for name, row in doc["rows"].items():
+        seeds = row["seeds"]
+        assert [x["seed"] for x in seeds] == [0, 1]
+        assert seeds[0]["psnr"] == pytest.approx(first[name]["psnr"])
+        assert read_record(out / seeds[1]["checkpoint"])[0]["train"]["seed"] == 1
+        assert row["psnr"] == pytest.approx((seeds[0]["psnr"] + seeds[1]["psnr"]) / 2)
+        assert row["checkpoint"] == max(seeds, key=lambda x: x["psnr"])["checkpoint"]  # export takes the best seed
+    assert "Each rung trained with 2 seeds" in (out / "size.md").read_text()
+
+
 @pytest.mark.parametrize("extra, message", [
     (["--target", "within"], "expected within:DB"),
     (["--target", "within:1", "--budget-ms", "3"], "--budget-ms and --device go together"),
