@@ -139,22 +139,23 @@ def view_jumped(prev: CameraState, cur: CameraState, aspect: float) -> bool:
     or most of the image moved by more than half its size on an axis (``data check`` refuses such
     motion).  The image is taken at the distance of the point looked at.  The motion of most pixels
     then leaves the image (no history), which is what a cut means to an upscaler."""
-    forward = -cur.view()[2, :3]
-    focus = np.append(cur.position * cur.inverse_focus + forward, cur.inverse_focus)  # homogeneous; w = 0 at infinity
+    view = cur.view()
+    focus = np.append(cur.position * cur.inverse_focus - view[2, :3], cur.inverse_focus)  # homogeneous; w = 0 at infinity
     to_prev = perspective(prev.fov, aspect, 1.0, 2.0) @ prev.view()
     clip = to_prev @ focus
     if clip[3] <= 0.0 or max(abs(clip[0]), abs(clip[1])) > clip[3]:
         return True
-    return _share_moved_over_half(to_prev, cur, aspect, focus) > 0.5
+    return _share_moved_over_half(to_prev, view, cur.fov, aspect, focus) > 0.5
 
 
-def _share_moved_over_half(to_prev: np.ndarray, cur: CameraState, aspect: float, focus: np.ndarray) -> float:
-    """The share of a JUMP_GRID x JUMP_GRID grid of ``cur``'s image points (at the depth of ``focus``)
-    that lie behind the previous camera or more than half the image away from where they are now."""
+def _share_moved_over_half(to_prev: np.ndarray, view: np.ndarray, fov: float, aspect: float, focus: np.ndarray) -> float:
+    """The share of a JUMP_GRID x JUMP_GRID grid of the image points of the camera at ``view`` (at the
+    depth of ``focus``) that lie behind the previous camera or more than half the image away from
+    where they are now."""
     ndc = (np.arange(JUMP_GRID) + 0.5) / JUMP_GRID * 2.0 - 1.0
     x, y = (a.ravel() for a in np.meshgrid(ndc, ndc))
-    half_y = math.tan(math.radians(cur.fov) / 2.0)
-    right, up = cur.view()[0, :3], cur.view()[1, :3]
+    half_y = math.tan(math.radians(fov) / 2.0)
+    right, up = view[0, :3], view[1, :3]
     directions = focus[:3, None] + (right[:, None] * (x * half_y * aspect) + up[:, None] * (y * half_y))
     points = np.vstack([directions, np.full(x.size, focus[3])])  # at the focus distance, or at infinity
     clip = to_prev @ points

@@ -66,13 +66,13 @@ def run_size(request: SizeRequest) -> dict:
         log.info("evaluating %s on %d held-out sequence(s)", " and ".join(BASELINES), len(test_seqs))
         doc["baselines"] = _baselines(test_seqs, scale, request)
         atomic_write_json(request.out / "size.json", doc)
+    runs_done = doc["rows"] if request.seeds == 1 else doc.setdefault("seed_runs", {})  # one run is the row itself
     for i, name in enumerate(names, 1):
         runs = []
         for k in range(request.seeds):
             log.info("rung %d/%d: %s%s", i, len(names), name, f", seed run {k + 1}/{request.seeds}" if request.seeds > 1 else "")
             checkpoint = train_rung(name, train_seqs, scale, request, k)
             digest = sha256_file(checkpoint)
-            runs_done = doc["rows"] if request.seeds == 1 else doc.setdefault("seed_runs", {})
             key = name if request.seeds == 1 else checkpoint.parent.name
             if (runs_done.get(key) or {}).get("checkpoint_sha256") != digest:
                 runs_done[key] = evaluate_rung(name, checkpoint, digest, test_seqs, scale, devices, request)
