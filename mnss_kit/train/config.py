@@ -71,6 +71,9 @@ class TrainConfig:
     # weights a new run starts from (a shipped name or a .pt path; ``--init`` wins): a fine-tune
     # config names the run it continues, so the whole recipe lives in configs
     init: str | None = None
+    # parameter-name prefixes to train (e.g. ["steer.detail."]: only ntaau_lr's detail branch); the
+    # rest stays frozen at its initial weights.  None: every parameter
+    trainable: list[str] | None = None
 
     def __post_init__(self):
         positive = ("window", "batch_size", "crop", "epochs", "steps_per_epoch", "checkpoint_every", "log_every", "val_windows")

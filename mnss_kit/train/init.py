@@ -6,7 +6,8 @@ shape; otherwise a one-line UserError names the first difference.  Settings that
 tensor (activations, the history source) may differ: the config's win, and they are logged.
 One exception: a model that reads inputs the checkpoint's did not (ntaau_lr's ``scale_input``,
 the 1/s map, appended after its other inputs) starts with zero weights on them, so it begins as
-the checkpoint's function at every scale.
+the checkpoint's function at every scale.  And a model given a branch the checkpoint lacks (ntaau_lr's
+``detail``) takes that branch's own initial weights, whose last conv is zero: it draws nothing.
 """
 
 from __future__ import annotations
@@ -33,11 +34,12 @@ def initial_weights(config, name_or_path: str) -> tuple[dict, dict]:
         raise UserError(f"--init {name_or_path}: a {record.get('family')} x{record.get('scale')} checkpoint cannot "
                         f"start a {config.family} x{model.scale} model")
     weights = _with_added_inputs(model.state_dict(), source.state_dict(), _added_inputs(model, source))
+    weights = _with_added_branch(model.state_dict(), weights, model, source)
     _check_tensors(model.state_dict(), weights, name_or_path)
     saved = to_dict(model_config_from_dict(record["config"]))  # keys added since the record read as defaults
     differing = sorted(k for k, v in to_dict(config).items() if saved.get(k) != v)
     if differing:
-        log.info("--init %s: model.%s differ from the checkpoint's (no tensor changes shape; the config's are used)",
+        log.info("--init %s: model.%s differ from the checkpoint's (the config's are used)",
                  name_or_path, ", model.".join(differing))
     return weights, checkpoint.identity(name_or_path, record)
 
@@ -61,6 +63,13 @@ def _with_added_inputs(ours: dict, theirs: dict, added: int) -> dict:
             zeros = source.new_zeros((source.shape[0], added, *source.shape[2:]))
             widened[key] = torch.cat([source, zeros], dim=1)
     return widened
+
+
+def _with_added_branch(ours: dict, theirs: dict, model: nn.Module, source: nn.Module) -> dict:
+    """``theirs`` plus the tensors of ntaau_lr's detail branch from ``ours`` when the checkpoint has none."""
+    if not getattr(model.config, "detail", False) or getattr(source.config, "detail", False):
+        return theirs
+    return {**theirs, **{k: v for k, v in ours.items() if k.startswith("steer.detail.")}}
 
 
 def _check_tensors(ours: dict, theirs: dict, name: str) -> None:

@@ -81,3 +81,20 @@ def test_a_scale_input_model_starts_as_the_checkpoint_without_it():
     with torch.no_grad():
         assert torch.equal(modes.steer(features), shipped.steer(features[:, :8]))
         assert modes.steer.encode[0].weight[:, 8].abs().sum() == 0
+
+
+def test_trainable_freezes_every_other_parameter(write_experiment, tmp_path, capsys):
+    """``train.trainable`` names the parameters a run trains (a fine-tune that adds ntaau_lr's detail
+    branch and keeps the steering it starts from); a prefix that names none is refused in one line."""
+    model = shipped_model_section()
+    experiment, _ = load_experiment(write_experiment(model=model, epochs=1, steps_per_epoch=2, trainable=["recon."]))
+    tuned, _ = checkpoint.load(train(experiment, tmp_path / "run", progress=False, init=SHIPPED))
+    shipped, _ = checkpoint.load(SHIPPED)
+    before, after = shipped.state_dict(), tuned.state_dict()
+    changed = {k for k in before if not torch.equal(before[k], after[k])}
+    assert changed and all(k.startswith("recon.") for k in changed), changed
+    path = write_experiment(name="none.yaml", model=model, trainable=["nothing."])
+    assert cli.main(["train", str(path), "--out", str(tmp_path / "none"), "--init", SHIPPED]) == 2
+    err = capsys.readouterr().err
+    assert "names no parameter" in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "none").exists()

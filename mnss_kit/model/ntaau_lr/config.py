@@ -9,6 +9,7 @@ SCALES = (2, 3, 4)  # the integer scales; any scale in [1.25, 4] is taken (``ops
 FEATURE_CHANNELS = 8  # per LR pixel: colour (3), history luma - colour luma, clamp distance, history weight,
 #                       depth change since the last frame, motion spread
 STEER_CHANNELS = 6  # per LR pixel: history gain, sample gain, box widening, spatial fallback, filter (2)
+DETAIL_CHANNELS = 4  # per LR pixel with ``detail``: a luma patch over the pixel's HR footprint (net.detail_luma)
 
 
 @dataclass
@@ -37,6 +38,15 @@ class NTAAULRConfig:
     still_motion_px: float = 0.0
     # the NPU input gets a 9th channel, 1 / scale (a constant map), so one checkpoint can serve several scales
     scale_input: bool = False
+    # a detail branch beside the steering: 3 convs of detail_width at LR read the clamped history's
+    # luma at each of the s x s HR pixels of an LR pixel and write a luma patch per LR pixel (4 more
+    # outputs, each at most detail_bound) added to the display.  Its last conv starts at zero, so a
+    # model given the branch starts as the one without it; it is display-only (the history never
+    # holds it).  Integer scales only.  Torch only so far (a study option: the GPU passes do not draw
+    # it, and a bundle refuses it)
+    detail: bool = False
+    detail_bound: float = 0.1
+    detail_width: int = 16
 
     def __post_init__(self):
         from ...errors import UserError
@@ -58,11 +68,18 @@ class NTAAULRConfig:
             raise ValueError("trust_depth and trust_spread_px must be > 0")
         if not 0.0 <= self.history_gain_min <= 1.0:
             raise ValueError(f"history_gain_min must be in [0, 1], got {self.history_gain_min}")
+        if self.detail and not float(self.scale).is_integer():
+            raise ValueError(f"detail takes integer scales only, got {self.scale}")
+        if not 0.0 < self.detail_bound <= 0.5:
+            raise ValueError(f"detail_bound must be in (0, 0.5], got {self.detail_bound}")
         if self.still_motion_px < 0.0:
             raise ValueError(f"still_motion_px must be >= 0, got {self.still_motion_px}")
 
-    def npu_input_channels(self) -> int:
+    def steer_input_channels(self) -> int:
         return FEATURE_CHANNELS + (1 if self.scale_input else 0)
 
+    def npu_input_channels(self) -> int:
+        return self.steer_input_channels() + (int(self.scale) ** 2 if self.detail else 0)
+
     def steer_channels(self) -> int:
-        return STEER_CHANNELS
+        return STEER_CHANNELS + (DETAIL_CHANNELS if self.detail else 0)

@@ -48,6 +48,11 @@ def bundle_gpu_plan(config: NTAAULRConfig, state_dict: dict, lr_size: tuple[int,
                     hr_size=None) -> dict:
     """The family record's ``gpu_plan``: passes, weight blocks (none), resources and schedule; ``hr_size``
     ``(W, H)`` at a fractional scale (else ``lr_size`` times the scale)."""
+    if config.detail:
+        from ...errors import UserError
+
+        raise UserError("model.detail is a torch-only study option: the GPU passes do not draw the detail patch yet, "
+                        "so this model cannot be bundled")
     return {"passes": pass_entries(passes_used(config)), "weights": [], "resources": resources(config, lr_size, hr_size),
             "schedule": schedule(config, lr_size, npu, profile, hr_size)}
 

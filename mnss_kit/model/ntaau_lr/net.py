@@ -44,9 +44,10 @@ from torch import nn
 from ..family import check_frame
 from ..layers import warp_bilinear
 from ..taau import (Steer, TAAUInputs, TAAUParams, blend, block_mean, box_widening, history_floor, hr_dims, is_tiled,
-                    rgb_to_ycocg, sanitize_colour, sanitize_depth, sanitize_motion, start_frame, taau_inputs)
+                    nearest_index, rgb_to_ycocg, sanitize_colour, sanitize_depth, sanitize_motion,
+                    start_frame, taau_inputs)
 from ...ops.scale import parse_scale, size_mismatch
-from .config import NTAAULRConfig
+from .config import DETAIL_CHANNELS, STEER_CHANNELS, NTAAULRConfig
 
 STAGE_ORDER = ("lr_gather", "steer", "lr_accumulate")
 FRAME_SHAPES = {"color": 3, "depth": 1, "motion": 2}
@@ -110,18 +111,28 @@ class Gather(nn.Module):
         parts = [color, luma_gap, distance, weight, change, spread.clamp(max=4.0)]
         if self.config.scale_input:  # 1 / s, a constant map: one checkpoint for several scales
             parts.append(torch.full_like(change, 1.0 / float(s)))
+        if self.config.detail:  # the detail branch's input: the clamped history's luma at each of the s x s HR pixels
+            parts.append(F.pixel_unshuffle(clamped[:, :1], int(s)))
         features = torch.cat(parts, dim=1)
         return inputs, trust(change, spread, self.config), pad_even(features)
 
 
 class SteerNet(nn.Module):
     """The NPU part, an encoder-decoder at LR: Conv2d (bias), ReLU, PixelUnshuffle, PixelShuffle,
-    add; fx-traceable.  ``forward(features)``: (N, 8, h, w), h and w even -> raw steering (N, 6, h, w)."""
+    add; fx-traceable.  ``forward(features)``: (N, 8, h, w), h and w even -> raw steering (N, 6, h, w);
+    with the detail branch (``model.detail``, a study option) the inputs after the steering's go to its
+    own three convs, whose 4 outputs follow the steering's."""
 
     placement = "npu"
 
-    def __init__(self, c_in: int, width: int, mid_layers: int, c_out: int):
+    def __init__(self, c_in: int, width: int, mid_layers: int, c_out: int, detail_in: int = 0, detail_width: int = 16):
         super().__init__()
+        self.c_in = c_in
+        if detail_in:  # the detail branch (``model.detail``): its own convs on the inputs after the steering's
+            self.detail = nn.Sequential(_conv(detail_in, detail_width, 3), nn.ReLU(), _conv(detail_width, detail_width, 3),
+                                        nn.ReLU(), nn.Conv2d(detail_width, DETAIL_CHANNELS, 3, padding=1))
+            nn.init.zeros_(self.detail[-1].weight)  # draws nothing until trained
+            nn.init.zeros_(self.detail[-1].bias)
         self.encode = nn.Sequential(_conv(c_in, width, 3), nn.ReLU())
         mid: list[nn.Module] = [nn.PixelUnshuffle(2)]
         channels = 4 * width
@@ -135,8 +146,12 @@ class SteerNet(nn.Module):
         nn.init.zeros_(self.decode[1].bias)
 
     def forward(self, features):
-        encoded = self.encode(features)
-        return self.decode(encoded + self.middle(encoded))
+        steering = features[:, :self.c_in] if hasattr(self, "detail") else features
+        encoded = self.encode(steering)
+        raw = self.decode(encoded + self.middle(encoded))
+        if hasattr(self, "detail"):
+            raw = torch.cat([raw, self.detail(features[:, self.c_in:])], dim=1)
+        return raw
 
 
 def _conv(c_in: int, c_out: int, k: int) -> nn.Conv2d:
@@ -171,6 +186,30 @@ def steer_from_lr(raw: torch.Tensor, trust_lr: torch.Tensor, config: NTAAULRConf
                  filter_diagonal=config.filter_bound * torch.tanh(hr[:, 5:6]))
 
 
+def detail_luma(raw: torch.Tensor, hr_hw: tuple[int, int], bound: float) -> torch.Tensor:
+    """The detail patches (N, 4, h, w) drawn at HR (N, 1, H, W): each HR pixel takes its nearest LR
+    pixel's patch, bilinear through the patch's four values ``bound tanh(raw)`` placed at offsets
+    (-1/4, -1/4), (+1/4, -1/4), (-1/4, +1/4), (+1/4, +1/4) LR pixels from its centre.  At x2 these are
+    the four HR pixels' centres, so each HR pixel gets one value (a pixel shuffle); at any other
+    scale the patch is interpolated (or extrapolated to +-1/2) at the HR pixel's own offset."""
+    h, w = raw.shape[-2:]
+    rows, cols = nearest_index(hr_hw[0], h, raw.device), nearest_index(hr_hw[1], w, raw.device)
+    values = (bound * torch.tanh(raw)).index_select(2, rows).index_select(3, cols)
+    tx = _patch_coordinate(hr_hw[1], w, raw).view(1, 1, 1, -1)
+    ty = _patch_coordinate(hr_hw[0], h, raw).view(1, 1, -1, 1)
+    top = values[:, 0:1] + tx * (values[:, 1:2] - values[:, 0:1])
+    bottom = values[:, 2:3] + tx * (values[:, 3:4] - values[:, 2:3])
+    return top + ty * (bottom - top)
+
+
+def _patch_coordinate(n_hr: int, n_lr: int, like: torch.Tensor) -> torch.Tensor:
+    """Per HR pixel along one axis, its offset from its nearest LR pixel's centre mapped so the
+    patch's values at -1/4 and +1/4 LR pixels sit at 0 and 1: ``0.5 + 2 u``."""
+    centre = (torch.arange(n_hr, dtype=like.dtype, device=like.device) + 0.5) * (n_lr / n_hr)
+    u = centre - (nearest_index(n_hr, n_lr, like.device).to(like.dtype) + 0.5)
+    return 0.5 + 2.0 * u
+
+
 class Accumulate(nn.Module):
     """The LR steering upsampled and mapped, and TAAU's blend with it."""
 
@@ -185,7 +224,11 @@ class Accumulate(nn.Module):
         hr_size = (inputs.samples.shape[-1], inputs.samples.shape[-2])
         c = self.config
         floor = history_floor(inputs.hr_motion, c.history_gain_min, c.still_motion_px)
-        return blend(inputs, self.params, steer_from_lr(raw[:, :, :h, :w], trust_lr, c, hr_size, floor))
+        steer = steer_from_lr(raw[:, :STEER_CHANNELS, :h, :w], trust_lr, c, hr_size, floor)
+        if c.detail:  # luma only: (Y, 0, 0) in YCoCg adds Y to each of R, G and B
+            luma = detail_luma(raw[:, STEER_CHANNELS:, :h, :w], inputs.samples.shape[-2:], c.detail_bound)
+            steer.correction = torch.cat([luma, torch.zeros_like(luma), torch.zeros_like(luma)], dim=1)
+        return blend(inputs, self.params, steer)
 
 
 class NTAAULR(nn.Module):
@@ -201,7 +244,9 @@ class NTAAULR(nn.Module):
         self.scale = config.scale
         self.params = TAAUParams(alpha=config.alpha)
         self.lr_gather = Gather(config, self.params)
-        self.steer = SteerNet(config.npu_input_channels(), config.width, config.mid_layers, config.steer_channels())
+        detail_in = config.npu_input_channels() - config.steer_input_channels()
+        self.steer = SteerNet(config.steer_input_channels(), config.width, config.mid_layers, STEER_CHANNELS, detail_in,
+                              config.detail_width)
         self.lr_accumulate = Accumulate(self.params, config)
         # (W, H) of the output at a fractional scale when it is not round_half_up(lr * s) (data made from a
         # display size: 1280x720 at 1.7 renders 753x424, and 424 * 1.7 rounds to 721); None: hr_dims
