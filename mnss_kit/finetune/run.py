@@ -33,6 +33,7 @@ RECIPE = {
     "gt_history_epochs": 0,  # ground-truth history teaches a net to trust history; a short run would learn only that
     "val_data": None,  # the held-back frames judge the run once, at its end
     "epochs": 100_000,  # steps are limited by the time budget
+    "total_steps": None,  # not the start model's own run length, which would end the fine-tune first
     "steps_per_epoch": 100,
     "checkpoint_every": 25,  # an interrupted run loses at most this many steps
     "val_every": 0,

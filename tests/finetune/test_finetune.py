@@ -46,3 +46,13 @@ def test_finetune_judges_the_held_back_frames_and_resumes(capture, tmp_path):
     (out / "run" / "model.pt").unlink()
     assert main(args) == 0  # a new run would refuse the directory that holds last.pt
     assert checkpoint.read_record(out / "run" / "model.pt")[0]["training"]["steps"] >= steps
+
+
+def test_the_budget_not_the_start_models_run_length_ends_a_fine_tune(tmp_path):
+    """The shipped default's record says 6000 steps; a fine-tune of it runs until its time budget."""
+    from mnss_kit.finetune.run import _experiment
+
+    experiment, record = _experiment("ntaau_lr_x2", tmp_path / "tune", 15.0, 180)
+    assert record["train"]["total_steps"] == 6000
+    assert experiment.train.total_steps is None and experiment.train.steps >= 1_000_000
+    assert experiment.train.time_budget_min == 15.0
