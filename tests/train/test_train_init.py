@@ -66,21 +66,44 @@ def test_a_config_names_the_run_it_fine_tunes(write_experiment, tmp_path, capsys
     assert not (tmp_path / "next").exists()
 
 
-def test_a_scale_input_model_starts_as_the_checkpoint_without_it():
-    """The 1/s input a modes model adds starts with zero weights: its steering equals the 2x checkpoint's."""
+def started_from(name: str, **changes):
+    """``(model, identity, checkpoint's model)``: the checkpoint's config with ``changes``, started from its weights."""
     from mnss_kit.model.config import model_config_from_dict
     from mnss_kit.train.init import initial_weights
 
-    shipped, record = checkpoint.load("ntaau_lr_x2")
-    config = model_config_from_dict(record["config"] | {"scale_input": True})
-    weights, identity = initial_weights(config, "ntaau_lr_x2")
-    modes = build_model(config)
-    modes.load_state_dict(weights)
+    shipped, record = checkpoint.load(name)
+    config = model_config_from_dict(record["config"] | changes)
+    weights, identity = initial_weights(config, name)
+    model = build_model(config)
+    model.load_state_dict(weights)
+    return model, identity, shipped
+
+
+def test_a_scale_input_model_starts_as_the_checkpoint_without_it():
+    """The 1/s input a modes model adds starts with zero weights: its steering equals the 2x checkpoint's."""
+    modes, identity, shipped = started_from("ntaau_lr_x2", scale_input=True)
     assert identity["path"] == "ntaau_lr_x2"
     features = torch.rand(1, 9, 16, 16)
     with torch.no_grad():
         assert torch.equal(modes.steer(features), shipped.steer(features[:, :8]))
         assert modes.steer.encode[0].weight[:, 8].abs().sum() == 0
+
+
+def test_a_detail_model_starts_as_the_checkpoint_without_it():
+    """ntaau_lr's detail branch, absent from the checkpoint, starts with its last conv at zero: the
+    model's frames equal the checkpoint's."""
+    from mnss_kit.model.families import FAMILIES
+    from mnss_kit.model.family import example_frame
+
+    model, _, shipped = started_from("ntaau_lr_x2", detail=True)
+    g = torch.Generator().manual_seed(4)
+    state = ref_state = None
+    with torch.no_grad():
+        for _ in range(3):
+            frame = example_frame(FAMILIES["ntaau_lr"], 12, 16, 2, generator=g)
+            out, _, state = model(frame, state)
+            ref, _, ref_state = shipped(frame, ref_state)
+            assert torch.allclose(out, ref, atol=1e-6)
 
 
 def test_trainable_freezes_every_other_parameter(write_experiment, tmp_path, capsys):
