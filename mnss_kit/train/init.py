@@ -34,7 +34,7 @@ def initial_weights(config, name_or_path: str) -> tuple[dict, dict]:
         raise UserError(f"--init {name_or_path}: a {record.get('family')} x{record.get('scale')} checkpoint cannot "
                         f"start a {config.family} x{model.scale} model")
     weights = _with_added_inputs(model.state_dict(), source.state_dict(), _added_inputs(model, source))
-    weights = _with_added_branch(model.state_dict(), weights, model, source)
+    weights = _with_added_branch(weights, model, source)
     _check_tensors(model.state_dict(), weights, name_or_path)
     saved = to_dict(model_config_from_dict(record["config"]))  # keys added since the record read as defaults
     differing = sorted(k for k, v in to_dict(config).items() if saved.get(k) != v)
@@ -65,11 +65,11 @@ def _with_added_inputs(ours: dict, theirs: dict, added: int) -> dict:
     return widened
 
 
-def _with_added_branch(ours: dict, theirs: dict, model: nn.Module, source: nn.Module) -> dict:
-    """``theirs`` plus the tensors of ntaau_lr's detail branch from ``ours`` when the checkpoint has none."""
+def _with_added_branch(theirs: dict, model: nn.Module, source: nn.Module) -> dict:
+    """``theirs`` plus the tensors of ntaau_lr's detail branch from ``model`` when the checkpoint has none."""
     if not getattr(model.config, "detail", False) or getattr(source.config, "detail", False):
         return theirs
-    return {**theirs, **{k: v for k, v in ours.items() if k.startswith("steer.detail.")}}
+    return {**theirs, **{k: v for k, v in model.state_dict().items() if k.startswith("steer.detail.")}}
 
 
 def _check_tensors(ours: dict, theirs: dict, name: str) -> None:
