@@ -27,6 +27,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"share of each sequence's last frames judged, never trained on (default {DEFAULT_HOLD_BACK:g})")
     parser.add_argument("--warmup", type=int, default=DEFAULT_WARMUP,
                         help=f"frames run before the held-back ones to build up history, not scored (default {DEFAULT_WARMUP})")
+    parser.add_argument("--detail", action="store_true",
+                        help="ntaau_lr models: after the steering, fit a detail branch that sharpens the display "
+                             "(runs in torch only; the GPU passes do not draw it yet)")
     parser.add_argument("--sequences", nargs="+", metavar="NAME", help="only these sequences of the capture")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
 
@@ -41,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or Path("runs") / f"finetune_{args.capture.resolve().name}"
     check_output(out, "into")
     result = finetune(args.capture, out, args.model, minutes=args.minutes, hold_back=args.hold_back, warmup=args.warmup,
-                      sequences=args.sequences, progress=not args.no_progress)
+                      sequences=args.sequences, progress=not args.no_progress, detail=args.detail)
     print(result.table)
     print(f"wrote {out / 'heldback.json'}, {out / 'heldback.md'} and crops in {out / 'crops'}")
     return 0

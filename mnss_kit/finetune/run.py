@@ -3,6 +3,7 @@
     OUT/split/tune/     the first (1 - hold_back) of each sequence's frames (hard links)
     OUT/split/judged/   warm-up frames, then the held-back ones
     OUT/run/            the training run (``last.pt`` while it runs, ``model.pt`` when done)
+    OUT/detail/         with ``detail``: the run's model with a detail branch fitted (finetune.detail)
     OUT/heldback.json   the judgement: per method and sequence, held-back frames only
     OUT/heldback.md     its table;  OUT/crops/  side-by-side crops of the held-back frames
 
@@ -40,6 +41,7 @@ RECIPE = {
     "threads": 0,  # every idle core
 }
 DEFAULT_MINUTES = 15.0
+DETAIL_SHARE = 0.4  # of the minutes with ``detail``: the branch's fit (recording included); the steering gets the rest
 DEFAULT_HOLD_BACK = 0.4
 DEFAULT_WARMUP = 4
 JUDGED_METRICS = ("psnr", "ssim", "if_ssim")
@@ -54,23 +56,33 @@ class FinetuneResult:
 
 
 def finetune(capture: Path, out: Path, model: str, minutes: float = DEFAULT_MINUTES, hold_back: float = DEFAULT_HOLD_BACK,
-             warmup: int = DEFAULT_WARMUP, sequences: list[str] | None = None, progress: bool = True) -> FinetuneResult:
-    """Fine-tune ``model`` on ``capture`` and judge it on the held-back frames (see the module doc)."""
+             warmup: int = DEFAULT_WARMUP, sequences: list[str] | None = None, progress: bool = True,
+             detail: bool = False) -> FinetuneResult:
+    """Fine-tune ``model`` on ``capture`` and judge it on the held-back frames (see the module doc);
+    ``detail``: the steering for part of the minutes, then a detail branch fitted (ntaau_lr only)."""
+    from .detail import check_detail, fit_detail
+
     if not 0.0 < hold_back < 1.0:
         raise UserError(f"--hold-back is the share of frames judged, in (0, 1); got {hold_back}")
     if minutes <= 0:
         raise UserError(f"--minutes must be positive, got {minutes}")
     seqs = _checked_sequences(capture, sequences)
     smallest = min(min(fmt.read_meta(s).lr_size) for s in seqs)
-    experiment, record = _experiment(model, out / "split" / "tune", minutes, smallest)
+    steer_minutes = minutes * (1.0 - DETAIL_SHARE) if detail else minutes
+    experiment, record = _experiment(model, out / "split" / "tune", steer_minutes, smallest)
+    if detail:
+        check_detail(record, model)
     train_cfg = experiment.train
     splits = [plan_split(s, fmt.read_meta(s), hold_back, warmup, train_cfg.burn_in + train_cfg.window) for s in seqs]
     _check_scale(seqs, record, model)
     write_split(seqs, splits, out / "split" / "tune", out / "split" / "judged")
     tuned = _train(experiment, out / "run", model, progress)
+    if detail:
+        tuned = fit_detail(tuned, out / "split" / "tune", out / "detail", minutes * DETAIL_SHARE, warmup, progress)
     summary = _judge(model, tuned, out, splits, progress)
     summary["settings"] = {"capture": portable_path(capture), "model": model, "minutes": minutes, "hold_back": hold_back,
-                           "warmup": warmup, "recipe": RECIPE,
+                           "warmup": warmup, "recipe": RECIPE, "detail": detail,
+                           "detail_share": DETAIL_SHARE if detail else None,
                            "sequences": {s.name: {"frames": s.frames, "tuned": len(s.tune), "held_back": len(s.held_back)}
                                          for s in splits}}
     atomic_write_json(out / "heldback.json", summary)

@@ -1,0 +1,187 @@
+"""The fine-tune's second phase (``mnss-kit finetune --detail``): a detail branch fitted to the capture.
+
+An ntaau_lr model's detail branch (``model.detail``: three convs at LR drawing a luma patch per LR
+pixel) is display-only: the history never depends on it, so it is fitted by plain regression on
+frames recorded once rather than through the recurrent loop, whose steps spend their time on
+burn-in frames and the steering.  The tuned model, given an empty branch (it draws nothing), runs
+once over the tuned frames; after each sequence's warm-up the branch's input, the display and the
+reference are kept, and the branch alone is fitted on random crops of them (L1) until its budget
+ends.  docs/studies/ntaau_lr.md ("A detail branch") has the screens behind it.
+
+    OUT/detail/last.pt   the fit so far: a rerun resumes it
+    OUT/detail/model.pt  the fitted model
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..errors import UserError
+from ..model import checkpoint
+from ..model.config import model_config_from_dict
+from ..model.families import build_model
+
+log = logging.getLogger(__name__)
+
+CROP = 32  # LR pixels a side
+BATCH = 8
+LR = 1.0e-3  # the branch starts from zero and has one capture to learn: a base run's rate, not a fine-tune's
+SAVE_EVERY_S = 60.0  # an interrupted fit loses at most this much
+RECORD_BYTES = 2 << 30  # recorded frames beyond this are thinned evenly (float16)
+
+
+def check_detail(record: dict, model: str) -> None:
+    """One line when ``model`` cannot take a detail branch."""
+    if record.get("family") != "ntaau_lr":
+        raise UserError(f"--detail: {model} is a {record.get('family')} model; only ntaau_lr models take a detail branch")
+    if not float(record.get("scale")).is_integer():
+        raise UserError(f"--detail: {model} is x{record.get('scale')}; the detail branch takes integer scales only")
+
+
+def with_empty_branch(path: Path, width: int | None = None) -> tuple[torch.nn.Module, dict]:
+    """``(model, record)``: the checkpoint at ``path`` plus a detail branch that draws nothing (the
+    branch's own initial weights, last conv zero), so the model starts as the checkpoint; ``width``
+    the branch's (default ``model.detail_width``'s)."""
+    from ..train.init import initial_weights
+
+    record, _ = checkpoint.read_record(path)
+    widths = {} if width is None else {"detail_width": width}
+    config = model_config_from_dict({**record["config"], "detail": True, **widths}, source=f"{path} record")
+    torch.manual_seed(0)
+    model = build_model(config)
+    weights, _ = initial_weights(config, str(path))
+    model.load_state_dict(weights)
+    return model.eval(), record
+
+
+def record_frames(model, tune_dir: Path, warmup: int, progress: bool = True):
+    """``(branch inputs, displays, references)``: lists of float16 (s*s, h, w), (3, H, W) and (3, H, W)
+    of every tuned frame from index ``warmup`` on, thinned evenly to :data:`RECORD_BYTES`."""
+    from tqdm import tqdm
+
+    from ..dataset import format as fmt
+    from ..eval.frames import iter_frames
+    from ..eval.methods import model_method
+
+    captured = {}
+    c_in = model.steer.c_in
+    hook = model.steer.register_forward_hook(lambda m, args, out: captured.__setitem__("x", args[0][:, c_in:]))
+    seqs = fmt.find_sequences(tune_dir)
+    metas = [fmt.read_meta(s) for s in seqs]
+    kept = _kept_indices([(s.name, len(m.frames)) for s, m in zip(seqs, metas)], warmup,
+                          max(m.lr_size[0] * m.lr_size[1] for m in metas), int(model.scale))
+    inputs, displays, references = [], [], []
+    bar = tqdm(total=sum(len(m.frames) for m in metas), unit="frame", desc="record", disable=None if progress else True)
+    try:
+        for seq, meta in zip(seqs, metas):
+            method, state = model_method(model), None
+            for frame in iter_frames(seq, meta):
+                with torch.no_grad():
+                    output, _, state = method(frame.inputs, state)
+                if (seq.name, frame.index) in kept:
+                    h, w = output.shape[-2] // int(model.scale), output.shape[-1] // int(model.scale)
+                    inputs.append(captured["x"][0, :, :h, :w].half())
+                    displays.append(output[0].clamp(0, 1).half())
+                    references.append(torch.from_numpy(np.ascontiguousarray(frame.reference)).permute(2, 0, 1).half())
+                bar.update(1)
+    finally:
+        hook.remove()
+        bar.close()
+    if not inputs:
+        raise UserError(f"--detail: no tuned frame after the {warmup}-frame warm-up to fit the branch on")
+    return inputs, displays, references
+
+
+def _kept_indices(counts: list[tuple[str, int]], warmup: int, lr_pixels: int, s: int) -> set[tuple[str, int]]:
+    """The recorded frames of sequences ``(name, frames)``: all after each warm-up, or every k-th of
+    them when they would not fit in :data:`RECORD_BYTES`."""
+    after = [(name, i) for name, n in counts for i in range(warmup, n)]
+    if not after:
+        return set()
+    per_frame = 2 * 7 * s * s * lr_pixels  # float16: the branch input, the display and the reference
+    k = max(1, -(-len(after) * per_frame // RECORD_BYTES))
+    if k > 1:
+        log.info("--detail: %d tuned frames would not fit in %d MiB; fitting on every %d-th", len(after), RECORD_BYTES >> 20, k)
+    return set(after[::k])
+
+
+def fit_branch(model, recorded, seconds: float, last: Path, record: dict, progress: bool = True) -> int:
+    """The branch fitted to ``display + patch -> reference`` on random crops for ``seconds`` of
+    fitting in all (resumed from ``last`` when it exists); returns the steps taken."""
+    from tqdm import tqdm
+
+    from ..model.ntaau_lr.net import detail_luma
+    from ..train.state import load_last, save_last
+
+    inputs, displays, references = recorded
+    for name, p in model.named_parameters():
+        p.requires_grad_(name.startswith("steer.detail."))
+    branch, bound, s = model.steer.detail, model.config.detail_bound, int(model.scale)
+    optimizer = torch.optim.Adam(branch.parameters(), lr=LR)
+    steps, elapsed = 0, 0.0
+    if last.is_file():
+        _, state = load_last(last, model, optimizer)
+        steps, elapsed = int(state["step"]), float(state["elapsed_s"])
+        log.info("--detail: resuming the branch fit at step %d (%.0f s done)", steps, elapsed)
+    crop_h = min(CROP, *(t.shape[-2] for t in inputs))
+    crop_w = min(CROP, *(t.shape[-1] for t in inputs))
+    bar = tqdm(total=round(seconds), initial=min(round(elapsed), round(seconds)), unit="s", desc="fit detail",
+               disable=None if progress else True)
+    model.train()
+    started, saved = time.monotonic() - elapsed, time.monotonic()
+    while elapsed < seconds:
+        x_in, display, reference = _batch(inputs, displays, references, crop_h, crop_w, s)
+        drawn = (display + detail_luma(branch(x_in), (s * crop_h, s * crop_w), bound)).clamp(0, 1)
+        loss = (drawn - reference).abs().mean()
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+        steps += 1
+        now = time.monotonic()
+        bar.update(min(round(now - started), round(seconds)) - bar.n)
+        elapsed = now - started
+        if now - saved >= SAVE_EVERY_S:
+            save_last(last, model, record, optimizer, {"step": steps, "epoch": 0, "elapsed_s": elapsed,
+                                                       "recent_loss": float(loss.detach())})
+            saved = now
+    bar.close()
+    model.eval()
+    return steps
+
+
+def _batch(inputs, displays, references, crop_h: int, crop_w: int, s: int):
+    """:data:`BATCH` random crops of random recorded frames, float32: (branch input, display, reference)."""
+    picked = ([], [], [])
+    for i in torch.randint(0, len(inputs), (BATCH,)).tolist():
+        y = int(torch.randint(0, inputs[i].shape[-2] - crop_h + 1, (1,)))
+        x = int(torch.randint(0, inputs[i].shape[-1] - crop_w + 1, (1,)))
+        hr = (slice(s * y, s * (y + crop_h)), slice(s * x, s * (x + crop_w)))
+        picked[0].append(inputs[i][:, y:y + crop_h, x:x + crop_w])
+        picked[1].append(displays[i][:, hr[0], hr[1]])
+        picked[2].append(references[i][:, hr[0], hr[1]])
+    return tuple(torch.stack(p).float() for p in picked)
+
+
+def fit_detail(tuned: Path, tune_dir: Path, out_dir: Path, minutes: float, warmup: int, progress: bool = True) -> Path:
+    """``out_dir/model.pt``: the model at ``tuned`` with a detail branch fitted on ``tune_dir`` for
+    ``minutes`` (recording included); kept when done, resumed from ``last.pt`` when cut."""
+    from ..train.state import FINAL, LAST
+
+    final = out_dir / FINAL
+    if final.is_file():
+        log.info("detail branch already fitted: %s", final)
+        return final
+    start = time.monotonic()
+    model, record = with_empty_branch(tuned)
+    recorded = record_frames(model, tune_dir, warmup, progress)
+    recording_s = time.monotonic() - start
+    steps = fit_branch(model, recorded, max(0.0, minutes * 60.0 - recording_s), out_dir / LAST, record, progress)
+    record = {**record, "detail_fit": {"minutes": minutes, "frames": len(recorded[0]), "steps": steps, "lr": LR,
+                                       "crop": CROP, "batch": BATCH}}
+    checkpoint.save(final, model, record)
+    return final

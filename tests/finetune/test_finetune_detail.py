@@ -1,0 +1,89 @@
+"""``mnss-kit finetune --detail``: the steering for part of the budget, then a detail branch fitted on
+recorded frames; the fit resumes, the judged model is the one with the branch, and a model that
+cannot take a branch is refused before any work."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import torch
+
+from mnss_kit.cli import main
+from mnss_kit.dataset.synthetic import write_synthetic_sequence
+from mnss_kit.finetune import detail
+from mnss_kit.model import checkpoint
+
+
+@pytest.fixture(scope="module")
+def capture(tmp_path_factory):
+    root = tmp_path_factory.mktemp("capture")
+    write_synthetic_sequence(root / "pan", lr_size=(32, 24), frames=24, name="pan")
+    return root
+
+
+def _branch_is_empty(path) -> bool:
+    _, weights = checkpoint.read_record(path)
+    return not weights["steer.detail.4.weight"].any()
+
+
+def test_detail_fits_a_branch_after_the_steering(capture, tmp_path):
+    out = tmp_path / "ft"
+    assert main(["finetune", str(capture), "--out", str(out), "--minutes", "0.1", "--detail", "--no-progress"]) == 0
+    fitted = out / "detail" / "model.pt"
+    record, _ = checkpoint.read_record(fitted)
+    assert record["config"]["detail"] and record["detail_fit"]["steps"] > 0 and record["detail_fit"]["frames"] == 10
+    assert not checkpoint.read_record(out / "run" / "model.pt")[0]["config"]["detail"]  # the steering phase has none
+    assert not _branch_is_empty(fitted)
+    summary = json.loads((out / "heldback.json").read_text())
+    assert summary["settings"]["detail"] and summary["methods"]["finetuned"]["psnr"] != summary["methods"]["before"]["psnr"]
+
+
+def test_a_cut_branch_fit_continues_from_its_last_checkpoint(capture, tmp_path, monkeypatch, caplog):
+    monkeypatch.setattr(detail, "SAVE_EVERY_S", 0.0)  # a last.pt after every step
+    batch, calls = detail._batch, []
+
+    def cut_at_the_sixth(*args):
+        calls.append(1)
+        if len(calls) == 6:
+            raise KeyboardInterrupt
+        return batch(*args)
+
+    out = tmp_path / "ft"
+    args = ["finetune", str(capture), "--out", str(out), "--minutes", "0.1", "--detail", "--no-progress"]
+    monkeypatch.setattr(detail, "_batch", cut_at_the_sixth)
+    assert main(args) == 130 and not (out / "detail" / "model.pt").exists()
+    assert (out / "detail" / "last.pt").is_file()
+    monkeypatch.setattr(detail, "_batch", batch)
+    with caplog.at_level("INFO", logger="mnss_kit.finetune.detail"):
+        assert main(args) == 0
+    assert "resuming the branch fit at step 5" in caplog.text
+    assert checkpoint.read_record(out / "detail" / "model.pt")[0]["detail_fit"]["steps"] > 5
+
+
+def test_detail_refuses_a_model_without_a_branch_in_one_line(capture, tmp_path, capsys):
+    assert main(["finetune", str(capture), "--out", str(tmp_path / "o"), "--model", "mnss_x2", "--detail"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--detail" in err[0] and "mnss" in err[0]
+    assert not (tmp_path / "o" / "run").exists()
+
+
+def test_an_empty_branch_leaves_the_model_as_it_was(capture):
+    from mnss_kit.eval.frames import iter_frames
+    from mnss_kit.dataset import format as fmt
+
+    plain, _ = checkpoint.load("ntaau_lr_x2")
+    branched, _ = detail.with_empty_branch(checkpoint.resolve("ntaau_lr_x2"))
+    frame = next(iter_frames(capture / "pan", fmt.read_meta(capture / "pan"))).inputs
+    with torch.no_grad():
+        a = plain(frame, plain.initial_state(frame))[0]
+        b = branched(frame, branched.initial_state(frame))[0]
+    assert torch.equal(a, b)
+
+
+def test_recorded_frames_are_thinned_evenly_past_the_memory_budget(monkeypatch):
+    counts = [("a", 10), ("b", 10)]
+    assert len(detail._kept_indices(counts, 4, 100, 2)) == 12  # all after each warm-up
+    monkeypatch.setattr(detail, "RECORD_BYTES", 2 * 7 * 4 * 100 * 4)  # room for 4 frames
+    kept = sorted(detail._kept_indices(counts, 4, 100, 2))
+    assert kept == [("a", 4), ("a", 7), ("b", 4), ("b", 7)]
