@@ -1,6 +1,7 @@
 """Reference definitions of the ``ntaau_lr`` family's own steps (numpy, one frame, ``(h, w, C)``):
-the evidence the GPU gathers at LR (depth change, motion spread, trust), the 8 steering features,
-and the LR steering upsampled to HR and mapped to a :class:`~.taau.Steer`.  The torch model
+the evidence the GPU gathers at LR (depth change, motion spread, trust), the 8 steering features
+(and the detail branch's inputs), the LR steering upsampled to HR and mapped to a
+:class:`~.taau.Steer`, and the detail branch's luma patch drawn at HR.  The torch model
 (``model.ntaau_lr.net``) and the GLSL passes (``taau_lr*.comp``) are tested against these; the
 accumulation itself is ``ops.taau``'s.
 
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .demodulation import pixel_unshuffle
 from .resample import avgpool, upsample_bilinear
 from .scale import resize_bilinear
 from .taau import Steer, box_widening, hr_dims, is_tiled, nearest_index, neighbourhood_box, rgb_to_ycocg
@@ -19,6 +21,7 @@ from .warp import warp_bilinear
 
 DEPTH_FLOOR = 1e-4  # depth below which the relative change is taken against this (model.ntaau_lr.net)
 SPREAD_CAP = 4.0  # the motion spread feature is capped here (LR pixels)
+STEER_CHANNELS = 6  # raw LR steering values: history gain, sample gain, box widening, fallback, filter (2); a detail branch's 4 follow
 
 
 def nearest_depth(previous: np.ndarray) -> np.ndarray:
@@ -82,12 +85,15 @@ def block_mean(x: np.ndarray, lr_hw, scale) -> np.ndarray:
 
 
 def steering_features(colour: np.ndarray, history: np.ndarray, history_weight: np.ndarray, change: np.ndarray,
-                      spread: np.ndarray, scale, max_weight: float, scale_input: float = 0.0) -> np.ndarray:
+                      spread: np.ndarray, scale, max_weight: float, scale_input: float = 0.0,
+                      detail: bool = False) -> np.ndarray:
     """The steering net's input (h', w', 8), padded to an even size: the LR colour, the clamped YCoCg
     ``history``'s luma minus the colour's, the clamp distance and ``history_weight / max_weight``
     (each the mean over the pixel's HR block, ``block_mean``), the depth change and the spread
     (capped); with ``scale_input`` (its value, ``1 / scale``, or True for ``1 / scale``) a 9th channel
-    of that constant.  The HR size is the history's."""
+    of that constant; with ``detail`` (an integer scale) then ``s * s`` channels, the clamped
+    history's luma at each HR pixel of the LR pixel's block, channel ``dy * s + dx``
+    (``ops.demodulation.pixel_unshuffle``: the detail branch's input).  The HR size is the history's."""
     colour = np.asarray(colour, np.float32)
     lr_hw = colour.shape[:2]
     hr_size = (history.shape[1], history.shape[0])
@@ -101,7 +107,40 @@ def steering_features(colour: np.ndarray, history: np.ndarray, history_weight: n
     if scale_input:
         value = 1.0 / float(scale) if scale_input is True else float(scale_input)
         parts.append(np.full_like(capped, np.float32(value)))
+    if detail:
+        if not is_tiled(lr_hw, clamped.shape[:2], scale):
+            raise ValueError(f"the detail branch's inputs take an integer scale with HR = LR x scale, got {scale}")
+        parts.append(pixel_unshuffle(clamped[..., :1], int(scale)))
     return pad_even(np.concatenate(parts, axis=-1).astype(np.float32))
+
+
+def detail_luma(raw: np.ndarray, hr_hw, bound: float) -> np.ndarray:
+    """The detail patches (h, w, 4; the raw values, the net's padded output cropped) drawn at HR
+    (H, W, 1) (``model.ntaau_lr.net.detail_luma``): each HR pixel takes its nearest LR pixel's patch,
+    bilinear through the patch's values ``bound tanh(raw)`` placed at (-1/4, -1/4), (+1/4, -1/4),
+    (-1/4, +1/4), (+1/4, +1/4) LR pixels from that pixel's centre; at x2 a pixel shuffle."""
+    h, w = raw.shape[:2]
+    values = np.float32(bound) * np.tanh(np.asarray(raw, np.float32))
+    values = values[nearest_index(hr_hw[0], h)][:, nearest_index(hr_hw[1], w)]
+    tx, ty = patch_coordinate(hr_hw[1], w)[None, :, None], patch_coordinate(hr_hw[0], h)[:, None, None]
+    top = values[..., 0:1] + tx * (values[..., 1:2] - values[..., 0:1])
+    bottom = values[..., 2:3] + tx * (values[..., 3:4] - values[..., 2:3])
+    return (top + ty * (bottom - top)).astype(np.float32)
+
+
+def detail_correction(raw: np.ndarray, hr_hw, bound: float) -> np.ndarray:
+    """The detail patch as the display's YCoCg correction (H, W, 3): (luma, 0, 0), which adds the
+    luma to each of R, G and B (``model.ntaau_lr.net.Accumulate``)."""
+    luma = detail_luma(raw, hr_hw, bound)
+    return np.concatenate([luma, np.zeros_like(luma), np.zeros_like(luma)], axis=-1)
+
+
+def patch_coordinate(n_hr: int, n_lr: int) -> np.ndarray:
+    """Per HR pixel along one axis, ``0.5 + 2 u`` for its offset ``u`` (LR pixels) from its nearest LR
+    pixel's centre: the patch's values at -1/4 and +1/4 sit at 0 and 1 (float32, as the torch model)."""
+    centre = (np.arange(n_hr, dtype=np.float32) + np.float32(0.5)) * np.float32(n_lr / n_hr)
+    u = centre - (nearest_index(n_hr, n_lr).astype(np.float32) + np.float32(0.5))
+    return (np.float32(0.5) + np.float32(2.0) * u).astype(np.float32)
 
 
 def upsample_to_hr(x: np.ndarray, scale, hr_size=None) -> np.ndarray:

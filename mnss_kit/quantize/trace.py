@@ -6,7 +6,8 @@ ReLU / ReLU6 / Hardtanh / clamp (folded into the producing convolution or
 addition), ``PixelShuffle`` / ``PixelUnshuffle``, ``torch.cat`` on channels,
 elementwise ``+`` and ``*`` (tensor or scalar), sigmoid, tanh, average pooling
 without padding, bilinear resizing, identity and dropout, on NCHW image inputs.  Anything
-else is a ``UserError`` naming the node.
+else is a ``UserError`` naming the node.  A module whose function needs an op outside these (a
+slice of its input) may offer ``graph_form()``, the same function in these ops, which is traced.
 
 PixelShuffle's channel order (``c * r^2 + k``) is not DEPTH_TO_SPACE's
 (``k * C + c``).  The convolution that produces a PixelShuffle input writes its
@@ -51,9 +52,11 @@ def depth_perm(perm: np.ndarray, block: int) -> np.ndarray:
 def trace(module: nn.Module, example_inputs: Sequence[torch.Tensor]) -> Graph:
     """Trace ``module`` on ``example_inputs`` (NCHW float32) into a float graph (NHWC).
 
-    Raises ``UserError`` for an op the int8 exporters cannot express.
+    A module with a ``graph_form()`` method is traced as the module it returns (the same function in
+    ops the graph has).  Raises ``UserError`` for an op the int8 exporters cannot express.
     """
-    module = module.eval()
+    graph_form = getattr(module, "graph_form", None)
+    module = (graph_form() if callable(graph_form) else module).eval()
     try:
         gm = torch.fx.symbolic_trace(module)
     except Exception as e:  # fx raises many types for dynamic control flow

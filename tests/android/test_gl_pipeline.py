@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import re
 
+import pytest
 from java_harness import CORE, REPO, run_gl_pipeline
 
 ANDROID_APP = REPO / "android" / "app" / "src" / "main" / "java" / "io" / "mnsskit" / "sample"
@@ -39,10 +40,12 @@ def test_app_frame_pipeline_runs_the_shipped_default_model_bit_exact(gl_classes,
     assert tensors > 0 and values > 0
 
 
-def test_app_frame_pipeline_runs_an_ntaau_lr_bundle(gl_classes, java_core, synthetic_dataset, tmp_path, capsys):
+@pytest.mark.parametrize("detail", [False, True], ids=["plain", "detail"])
+def test_app_frame_pipeline_runs_an_ntaau_lr_bundle(gl_classes, java_core, synthetic_dataset, tmp_path, capsys, detail):
     """An ntaau_lr bundle (a random model: an LR depth input that swaps with prev_depth at the end of
-    the frame, NPU tensors at the LR size): the core's verify and self-test, then the GL pipeline
-    over its golden frames, every GL-produced tensor within the golden tolerance."""
+    the frame, NPU tensors at the LR size; with a detail branch, 12 NPU input and 10 output channels
+    and the patch on the display): the core's verify and self-test, then the GL pipeline over its
+    golden frames, every GL-produced tensor within the golden tolerance."""
     import torch
 
     from mnss_kit.cli import main
@@ -51,7 +54,11 @@ def test_app_frame_pipeline_runs_an_ntaau_lr_bundle(gl_classes, java_core, synth
     from mnss_kit.model.ntaau_lr.config import NTAAULRConfig
 
     torch.manual_seed(0)
-    model = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1)), noise=0.5)
+    model = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1, detail=detail)), noise=0.5)
+    if detail:  # raw values of a few units, so the patch keeps levels under the output's one int8 scale
+        with torch.no_grad():
+            for p in [*model.steer.decode[-1].parameters(), *model.steer.detail[-1].parameters()]:
+                p.mul_(0.05)
     ckpt = checkpoint.save(tmp_path / "ntaau_lr.pt", model, {"jitter_pattern": "grid"})
     bundle = tmp_path / "ntaau_lr"
     assert main(["export", str(ckpt), "--out", str(bundle), "--resolution", "64x48", "--data", str(synthetic_dataset),
@@ -61,7 +68,8 @@ def test_app_frame_pipeline_runs_an_ntaau_lr_bundle(gl_classes, java_core, synth
     frames = len(json.loads((bundle / "manifest.json").read_text())["golden"]["frames"])
     tensors, values = run_gl_pipeline(gl_classes, bundle)
     with capsys.disabled():
-        print(f"\nGL pipeline on an ntaau_lr bundle: {tensors} tensors, {values} values compared over {frames} golden frames")
+        print(f"\nGL pipeline on an ntaau_lr bundle{' with a detail branch' if detail else ''}: {tensors} tensors, "
+              f"{values} values compared over {frames} golden frames")
     assert tensors == 2 * frames and values > 0  # the NPU input buffer and the display, every frame
 
 

@@ -1,7 +1,7 @@
 """The ntaau_lr family: a fresh model is the TAAU baseline bit for bit, each of its own steps in
 torch is its numpy reference (``ops.taau_lr``; the GLSL passes are held to the same reference in
 tests/gpu/test_taau_lr_passes.py), and a randomly initialised model goes through the bundle chain:
-export, bundle check, emulation bit-exact to every runtime."""
+export, bundle check, emulation bit-exact to every runtime; so does one with a detail branch."""
 
 from __future__ import annotations
 
@@ -139,24 +139,33 @@ def test_random_steering_stays_finite_and_in_range():
 
 # -- the bundle chain ---------------------------------------------------------------------------
 LR_SIZES = {"even": (32, 18), "odd": (33, 19)}  # (w, h): the odd one pads the NPU tensors to 34x20
+# (w, h) and the config's options of each bundle: a detail branch (model.detail) at the odd size
+BUNDLES = {"even": (LR_SIZES["even"], {}), "odd": (LR_SIZES["odd"], {}), "detail": (LR_SIZES["odd"], {"detail": True})}
 GOLDEN_FRAMES = 4
 
 
-@pytest.fixture(scope="module", params=list(LR_SIZES))
+@pytest.fixture(scope="module", params=list(BUNDLES))
 def bundle(request, tmp_path_factory):
     """A randomly initialised ntaau_lr model (non-zero last layer) exported with 4 golden frames
-    from a tiny render at the LR size, and that render."""
+    from a tiny render at the LR size, and that render.  With a detail branch the steering's and
+    the branch's last convs are scaled down to raw values of a few units, as a trained net's: the
+    two share the NPU output's int8 scale, and a random net's steering (hundreds) would round the
+    patch to the zero point."""
     from mnss_kit.cli import main
     from mnss_kit.model import checkpoint
 
-    w, h = LR_SIZES[request.param]
+    (w, h), options = BUNDLES[request.param]
     root = tmp_path_factory.mktemp(f"ntaau_lr_{request.param}")
     data = root / "data"
     assert main(["render", "tiny_test", "--out", str(data), "--set", f"frames={GOLDEN_FRAMES}", "--set", "hr_samples=1",
                  "--set", f"lr_size=[{w},{h}]", "--no-progress"]) == 0
     torch.manual_seed(0)
-    model = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1)), noise=0.5)
+    model = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1, **options)), noise=0.5)
     assert model.steer.decode[1].weight.abs().max() > 0
+    if model.config.detail:
+        with torch.no_grad():
+            for p in [*model.steer.decode[-1].parameters(), *model.steer.detail[-1].parameters()]:
+                p.mul_(0.05)
     ckpt = checkpoint.save(root / "ntaau_lr.pt", model, {"jitter_pattern": "grid"})
     out = root / "bundle"
     assert main(["export", str(ckpt), "--out", str(out), "--data", str(data), "--resolution", f"{2 * w}x{2 * h}",
@@ -175,8 +184,10 @@ def test_the_bundle_passes_its_check_and_lists_depth_and_its_state(bundle):
     assert roles["prev_depth"] == "state" and manifest["schedule"]["end_of_frame"] == [{"swap": ["depth", "prev_depth"]}]
     w, h = bundle["lr_size"]
     shapes = {t["name"]: t["shape"] for t in manifest["npu"]["tensors"]}
+    config = bundle["model"].config
+    channels = (8, 6) if not config.detail else (8 + config.scale ** 2, 10)
     assert [shapes[n] for n in manifest["npu"]["inputs"] + manifest["npu"]["outputs"]] == [
-        [1, h + h % 2, w + w % 2, 8], [1, h + h % 2, w + w % 2, 6]]
+        [1, h + h % 2, w + w % 2, channels[0]], [1, h + h % 2, w + w % 2, channels[1]]]
     assert len(manifest["golden"]["frames"]) == GOLDEN_FRAMES
 
 
@@ -206,19 +217,38 @@ def test_the_bundle_computes_the_model(bundle):
     from mnss_kit.emulate.run import sequence_frames
 
     emulator = Emulator(bundle["bundle"])
+    model = bundle["model"]
+    without_patch = _without_detail(model) if model.config.detail else None
     seq = next(p for p in sorted(bundle["data"].iterdir()) if p.is_dir() and not p.name.startswith("."))
-    state, margins = None, []
+    state = plain_state = None
+    margins, patch_margins = [], []
     for _, frame, _ in sequence_frames(seq, read_meta(seq), GOLDEN_FRAMES, emulator.runner.inputs):
         display = emulator.run_frame(frame).display.astype(np.float32) / 255
         batch = {k: _nchw(frame[k]) for k in ("color", "depth", "motion")}
         batch.update(jitter=torch.from_numpy(np.asarray(frame["jitter"], np.float32))[None],
                      reset=torch.tensor([float(frame["reset"])]))
         with torch.no_grad():
-            out, aux, state = bundle["model"](batch, state)
+            out, aux, state = model(batch, state)
         to_model, model_to_taau = _mse(hwc(out), display), _mse(hwc(out), hwc(aux["taau"]))
         margins.append(10 * np.log10(model_to_taau / to_model))
-    print(f"int8 bundle to the model, closer than the model to TAAU by {np.round(margins, 1)} dB per frame")
-    assert min(margins) > 6
+        if without_patch is not None:  # the detail patch is drawn as the model draws it
+            with torch.no_grad():
+                plain, _, plain_state = without_patch(batch, plain_state)
+            patch_margins.append(10 * np.log10(_mse(hwc(out), hwc(plain)) / to_model))
+    print(f"int8 bundle to the model, closer than the model to TAAU by {np.round(margins, 1)} dB per frame"
+          + (f", than to the model without its patch by {np.round(patch_margins, 1)} dB" if patch_margins else ""))
+    assert min(margins) > 6 and min(patch_margins, default=np.inf) > 6
+
+
+def _without_detail(model):
+    """A copy of a model with a detail branch whose branch draws nothing (its last conv zero)."""
+    import copy
+
+    plain = copy.deepcopy(model)
+    with torch.no_grad():
+        for p in plain.steer.detail[-1].parameters():
+            p.zero_()
+    return plain
 
 
 def _mse(a: np.ndarray, b: np.ndarray) -> float:

@@ -16,6 +16,11 @@ def _words(nbytes: int) -> int:
     return -(-nbytes // 4)
 
 
+def _detail_uniforms(npu_output, detail_bound: float) -> dict:
+    """ntaau_lr's detail uniforms: the NPU output's channels after the 6 steering ones, and the patch's bound (0: not drawn)."""
+    return {"u_detail_channels": int(npu_output.shape[-1]) - 6, "u_detail_bound": float(detail_bound)}
+
+
 class NamedPasses:
     """``backend`` (a ``ReferencePasses`` or ``MesaPasses``) with one method per pass; any other
     attribute is the backend's."""
@@ -120,30 +125,34 @@ class NamedPasses:
                           "u_trust_spread_px": float(trust_spread_px)})["evidence"]
 
     def taau_lr_pack(self, color, reprojected, evidence, scale, reset, max_weight, q_scale, q_zero_point, profile,
-                     scale_input=0.0):
+                     scale_input=0.0, detail=False):
         h, w = color.shape[:2]
-        words = _words((h + h % 2) * (w + w % 2) * (9 if scale_input else 8))
+        words = _words((h + h % 2) * (w + w % 2) * (8 + (1 if scale_input else 0) + (scale * scale if detail else 0)))
         uniforms = {"u_scale": scale, "u_reset": int(reset), "u_max_weight": float(max_weight), "u_word_count": words,
-                    "u_scale_input": float(np.float32(scale_input)), **quantize_uniforms(q_scale, q_zero_point, profile)}
+                    "u_scale_input": float(np.float32(scale_input)), "u_detail": int(detail),
+                    **quantize_uniforms(q_scale, q_zero_point, profile)}
         read = {"color": color, "reprojected": reprojected, "evidence": evidence}
         return self._run("taau_lr_pack_pass", read, uniforms, profile=profile)["npu_input"]
 
     def taau_lr_accumulate(self, npu_output, color, reprojected, evidence, jitter, scale, q_scale, q_zero_point, box_bound,
-                           sample_sigma, prior_weight, max_weight, motion=None, history_gain_min=0.0, still_motion_px=0.0):
+                           sample_sigma, prior_weight, max_weight, motion=None, history_gain_min=0.0, still_motion_px=0.0,
+                           detail_bound=0.0):
+        """``npu_output`` with 10 channels: a detail branch's (the patch drawn when ``detail_bound`` > 0)."""
         uniforms = {"u_scale": scale, **dequantize_uniforms(q_scale, q_zero_point), "u_box_bound": float(box_bound),
                     "u_history_gain_min": float(history_gain_min), "u_still_motion_px": float(still_motion_px),
-                    "u_sample_sigma": float(sample_sigma), "u_prior_weight": float(prior_weight), "u_max_weight": float(max_weight)}
+                    "u_sample_sigma": float(sample_sigma), "u_prior_weight": float(prior_weight), "u_max_weight": float(max_weight),
+                    **_detail_uniforms(npu_output, detail_bound)}
         if motion is None:  # no floor that fades with the motion: it is not read
             motion = np.zeros((*color.shape[:2], 2), np.float32)
         read = {"npu_output": npu_output, "color": color, "reprojected": reprojected, "evidence": evidence, "motion": motion}
         out = self._run("taau_lr_accumulate_pass", read, uniforms, jitter, None, scale)
         return out["history"], out["display"]
 
-    def taau_lr_filter(self, npu_output, history, scale, q_scale, q_zero_point, filter_bound, lr_size=None):
+    def taau_lr_filter(self, npu_output, history, scale, q_scale, q_zero_point, filter_bound, lr_size=None, detail_bound=0.0):
         hh, hw = history.shape[:2]
         lr = tuple(int(v) for v in lr_size) if lr_size is not None else (hw // scale, hh // scale)
         uniforms = {"u_scale": scale, "u_lr_size": lr, **dequantize_uniforms(q_scale, q_zero_point),
-                    "u_filter_bound": float(filter_bound)}
+                    "u_filter_bound": float(filter_bound), **_detail_uniforms(npu_output, detail_bound)}
         return self._run("taau_lr_filter_pass", {"npu_output": npu_output, "history": history}, uniforms)["display"]
 
     def fsr2_reconstruct(self, depth, motion, params):

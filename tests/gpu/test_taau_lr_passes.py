@@ -122,3 +122,71 @@ def test_steered_accumulation_with_a_history_floor_matches_reference(mesa, ref, 
     assert np.abs(display.astype(int) - want_display.astype(int)).max() <= 1
     plain, _ = ref.taau_lr_accumulate(*args)
     assert np.abs(want_history.astype(np.float32) - plain.astype(np.float32)).max() > 0.01  # the floor changed the blend
+
+
+# -- the detail branch (model.detail): its inputs in the pack, its patch on the display ----------
+DETAIL_BOUND = 0.1
+
+
+def _detail_steering(rng, h, w):
+    """Random int8 NPU output with a detail branch's 4 channels after the 6 steering ones, and its first 6 alone."""
+    steering = rng.integers(-128, 128, (1, h + h % 2, w + w % 2, 10)).astype(np.int8)
+    return steering, np.ascontiguousarray(steering[..., :6])
+
+
+@pytest.mark.parametrize("size", SIZES, ids=["odd", "even"])
+@pytest.mark.parametrize("scale", [2, 3])
+@pytest.mark.parametrize("scale_input", [False, True], ids=["features", "scale_input"])
+def test_pack_with_the_detail_inputs_matches_reference(mesa, ref, size, scale, scale_input):
+    """``u_detail`` 1: the clamped history's luma at the s x s HR texels of each LR texel follow the
+    features (and the scale input), within one step of the reference as the features are."""
+    _, f = _frame(ref, 17 * scale, *size, scale)
+    value = 1.0 / scale if scale_input else 0.0
+    for reset in (False, True):
+        args = (f["color"], f["reprojected"], f["evidence"], scale, reset, PARAMS.max_weight, 1.0 / 100.0, -20, "tflite-ref")
+        got, want = mesa.taau_lr_pack(*args, value, True), ref.taau_lr_pack(*args, value, True)
+        channels = 8 + int(scale_input) + scale * scale
+        assert got.shape == want.shape == (1, size[0] + size[0] % 2, size[1] + size[1] % 2, channels)
+        diff = np.abs(got.astype(int) - want.astype(int))
+        assert diff.max() <= 1 and (diff > 0).mean() < 0.01
+        plain = ref.taau_lr_pack(*args, value)
+        assert np.array_equal(want[..., :plain.shape[-1]], plain)  # the detail inputs come last
+        luma = want[..., plain.shape[-1]:]
+        if reset:  # a zero history clamps to the box's low luma: one value per block
+            assert (luma == luma[..., :1]).all()
+        else:
+            assert np.unique(luma).size > 10
+
+
+@pytest.mark.parametrize("size", SIZES, ids=["odd", "even"])
+@pytest.mark.parametrize("scale", [2, 3])
+def test_steered_accumulation_with_a_detail_branch_matches_reference(mesa, ref, size, scale):
+    """A 10-channel NPU output: the blend reads its 6 steering channels (the history never holds the
+    patch); the display gets the patch when ``u_detail_bound`` > 0 (a model without a display filter)."""
+    rng, f = _frame(ref, 19 * scale, *size, scale)
+    steering, plain = _detail_steering(rng, *size)
+    rest = (f["color"], f["reprojected"], f["evidence"], pattern_jitters("grid", scale)[0], scale, 0.03, 3, 1.5,
+            PARAMS.sample_sigma, PARAMS.prior_weight, PARAMS.max_weight)
+    plain_history, plain_display = ref.taau_lr_accumulate(plain, *rest)
+    for bound in (0.0, DETAIL_BOUND):  # 0: the filter pass draws the patch
+        history, display = mesa.taau_lr_accumulate(steering, *rest, detail_bound=bound)
+        want_history, want_display = ref.taau_lr_accumulate(steering, *rest, detail_bound=bound)
+        assert_float_close(history, want_history, TOLERANCE)
+        assert np.abs(display.astype(int) - want_display.astype(int)).max() <= 1
+        assert np.array_equal(want_history, plain_history)
+        drawn = np.abs(want_display.astype(int) - plain_display.astype(int)).max()
+        assert drawn > 8 if bound else drawn == 0
+
+
+@pytest.mark.parametrize("size", SIZES, ids=["odd", "even"])
+@pytest.mark.parametrize("scale", [2, 3])
+def test_display_filter_with_a_detail_patch_matches_reference(mesa, ref, size, scale):
+    rng, _ = _frame(ref, 23 * scale, *size, scale)
+    steering, plain = _detail_steering(rng, *size)
+    history = _history(rng, *size, scale)
+    got = mesa.taau_lr_filter(steering, history, scale, 0.03, 3, 0.25, detail_bound=DETAIL_BOUND)
+    want = ref.taau_lr_filter(steering, history, scale, 0.03, 3, 0.25, detail_bound=DETAIL_BOUND)
+    assert np.abs(got.astype(int) - want.astype(int)).max() <= 1
+    without = ref.taau_lr_filter(plain, history, scale, 0.03, 3, 0.25)
+    assert np.array_equal(ref.taau_lr_filter(steering, history, scale, 0.03, 3, 0.25), without)  # not drawn: the 6 alone
+    assert np.abs(want.astype(int) - without.astype(int)).max() > 8

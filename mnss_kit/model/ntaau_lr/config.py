@@ -5,10 +5,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from ...ops.taau_lr import STEER_CHANNELS  # noqa: F401  (the raw steering values per LR pixel; net and gpu_plan import it here)
+
 SCALES = (2, 3, 4)  # the integer scales; any scale in [1.25, 4] is taken (``ops.scale.parse_scale``)
 FEATURE_CHANNELS = 8  # per LR pixel: colour (3), history luma - colour luma, clamp distance, history weight,
 #                       depth change since the last frame, motion spread
-STEER_CHANNELS = 6  # per LR pixel: history gain, sample gain, box widening, spatial fallback, filter (2)
 DETAIL_CHANNELS = 4  # per LR pixel with ``detail``: a luma patch over the pixel's HR footprint (net.detail_luma)
 
 
@@ -42,8 +43,8 @@ class NTAAULRConfig:
     # luma at each of the s x s HR pixels of an LR pixel and write a luma patch per LR pixel (4 more
     # outputs, each at most detail_bound) added to the display.  Its last conv starts at zero, so a
     # model given the branch starts as the one without it; it is display-only (the history never
-    # holds it).  Integer scales only.  Torch only so far (a study option: the GPU passes do not draw
-    # it, and a bundle refuses it)
+    # holds it).  Integer scales only.  In a bundle the NPU input gets the s x s luma channels and the
+    # output the 4 patch values, which share the steering's int8 scale (one concatenation)
     detail: bool = False
     detail_bound: float = 0.1
     detail_width: int = 16

@@ -8,8 +8,12 @@ blend with its fallback: the next history and the display) and, when the net ste
 filter, ``taau_lr_filter_pass``.  At a fractional scale (a quality mode such as 1.5x) the passes
 get ``u_scale`` 0 and map HR texels to LR by the ratio of their textures' sizes, the reprojection
 is ``taau_lr_reproject_pass`` (the motion resized to the HR size, times each axis's ratio) and the
-filter pass gets the LR size as ``u_lr_size``.  At the end of the frame ``depth`` and ``prev_depth`` swap: this
-frame's depth is the next one's previous depth, without a copy.  No learned weights run on the GPU.
+filter pass gets the LR size as ``u_lr_size``.  With a detail branch (``model.detail``, integer
+scales) the pack pass writes its ``s * s`` input channels (``u_detail`` 1), the NPU output has its
+4 patch values after the 6 steering ones (``u_detail_channels`` 4 in the passes that read it), and
+the pass that writes the display (the filter pass, else the accumulation) draws the patch
+(``u_detail_bound`` > 0).  At the end of the frame ``depth`` and ``prev_depth`` swap: this frame's
+depth is the next one's previous depth, without a copy.  No learned weights run on the GPU.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import numpy as np
 from ...gpu import passes as P
 from ...gpu.plan import const, pass_entries, per_frame, quantize_uniforms, step, texture, boundary_buffer
 from ..taau import TAAUParams
-from .config import STEER_CHANNELS, NTAAULRConfig
+from .config import DETAIL_CHANNELS, NTAAULRConfig
 
 PASSES_USED = ("taau_reproject_pass", "taau_lr_evidence_pass", "taau_lr_pack_pass", "taau_lr_accumulate_pass")
 FILTER_PASS = "taau_lr_filter_pass"
@@ -48,11 +52,10 @@ def bundle_gpu_plan(config: NTAAULRConfig, state_dict: dict, lr_size: tuple[int,
                     hr_size=None) -> dict:
     """The family record's ``gpu_plan``: passes, weight blocks (none), resources and schedule; ``hr_size``
     ``(W, H)`` at a fractional scale (else ``lr_size`` times the scale)."""
-    if config.detail:
+    if config.detail and is_fractional(config):
         from ...errors import UserError
 
-        raise UserError("model.detail is a torch-only study option: the GPU passes do not draw the detail patch yet, "
-                        "so this model cannot be bundled")
+        raise UserError(f"model.detail takes integer scales only, so a x{config.scale} detail model cannot be bundled")
     return {"passes": pass_entries(passes_used(config)), "weights": [], "resources": resources(config, lr_size, hr_size),
             "schedule": schedule(config, lr_size, npu, profile, hr_size)}
 
@@ -87,8 +90,9 @@ def resources(config: NTAAULRConfig, lr_size: tuple[int, int], hr_size=None) -> 
         boundary_buffer("npu_input", tensor_words(lr_size, config.npu_input_channels()), f"int8 NHWC (1, h', w', "
              f"{config.npu_input_channels()}) NPU input at the LR size rounded "
              "up to even, 4 bytes per word, little-endian"),
-        boundary_buffer("npu_output", tensor_words(lr_size, STEER_CHANNELS),
-             f"int8 NHWC (1, h', w', {STEER_CHANNELS}) raw steering at LR from the NPU, 4 bytes per word, little-endian"),
+        boundary_buffer("npu_output", tensor_words(lr_size, config.steer_channels()),
+             f"int8 NHWC (1, h', w', {config.steer_channels()}) raw steering at LR from the NPU"
+             f"{' (then the detail patch)' if config.detail else ''}, 4 bytes per word, little-endian"),
         texture("display", hr, P.DISPLAY_FORMAT, "output", "the frame to show (8-bit codes)", 3),
     ]
 
@@ -104,7 +108,11 @@ def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile
     reproject_uniforms = {"u_reset": per_frame("reset"), "u_blur_penalty": const(params.blur_penalty)}
     words = tensor_words(lr_size, config.npu_input_channels())
     out_scale, out_zp = npu["output_q"]
-    dequantize = {"u_q_scale": const(float(np.float32(out_scale))), "u_q_zero_point": const(int(out_zp))}
+    dequantize = {"u_q_scale": const(float(np.float32(out_scale))), "u_q_zero_point": const(int(out_zp)),
+                  "u_detail_channels": const(DETAIL_CHANNELS if config.detail else 0)}
+    # the pass that writes the display draws the detail patch: the filter pass, else the accumulation
+    detail_bound = float(config.detail_bound) if config.detail else 0.0
+    filtered = config.filter_bound > 0
     steps = [
         step(RATIO_REPROJECT, "reproject history", "lr_gather",
              {"history": "history", "motion": "motion", "reprojected": "reprojected"}, reproject_uniforms, **a)
@@ -122,6 +130,7 @@ def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile
               "u_word_count": const(words),
               # a scale input: the 9th channel's value, 1 / the bundle's scale (float32); 0: 8 channels
               "u_scale_input": const(float(np.float32(1.0 / float(config.scale))) if config.scale_input else 0.0),
+              "u_detail": const(int(config.detail)),  # 1: the detail branch's s * s input channels follow
               **quantize_uniforms(*npu["input_q"], profile)}, words=words, **a),
         {"kind": "npu", "label": "steering net", "stage": "steer", "model": npu["model"],
          "inputs": {npu["input"]: "npu_input"}, "outputs": {npu["output"]: "npu_output"}},
@@ -131,13 +140,14 @@ def schedule(config: NTAAULRConfig, lr_size: tuple[int, int], npu: dict, profile
              {"u_scale": const(s), "u_jitter": per_frame("offset"), **dequantize, "u_box_bound": const(config.box_bound),
               "u_history_gain_min": const(config.history_gain_min), "u_still_motion_px": const(config.still_motion_px),
               "u_sample_sigma": const(params.sample_sigma), "u_prior_weight": const(params.prior_weight),
-              "u_max_weight": const(params.max_weight)}, **a),
+              "u_max_weight": const(params.max_weight), "u_detail_bound": const(0.0 if filtered else detail_bound)},
+             **a),
     ]
-    if config.filter_bound > 0:
+    if filtered:
         steps.append(step(FILTER_PASS, "display filter", "lr_accumulate",
                           {"npu_output": "npu_output", "history": "history", "display": "display"},
                           {"u_scale": const(s), "u_lr_size": const([int(v) for v in lr_size]), **dequantize,
-                           "u_filter_bound": const(config.filter_bound)}, **a))
+                           "u_filter_bound": const(config.filter_bound), "u_detail_bound": const(detail_bound)}, **a))
     return {
         "steps": steps,
         "end_of_frame": [{"swap": ["depth", "prev_depth"]}],

@@ -23,6 +23,11 @@ accumulation):
                        display filter's weights filter_bound tanh(e), tanh(f); TAAU's blend
                        with them
 
+With ``model.detail`` (integer scales) the NPU input also holds the clamped history's luma at each
+of the s x s HR pixels of an LR pixel, a branch of three convs beside the steering turns them into
+4 more raw values per LR pixel, and lr_accumulate adds their luma patch (``detail_luma``) to the
+display, never to the history.
+
 Trust is earned from evidence: the part of the history gain above 1 and a widening of the box
 are scaled by ``trust = clamp(1 - max(depth change, 0) / trust_depth - spread / trust_spread_px,
 0, 1)``, so where depth says "disoccluded" or the motion field says "edge of a moving object" the
@@ -120,8 +125,8 @@ class Gather(nn.Module):
 class SteerNet(nn.Module):
     """The NPU part, an encoder-decoder at LR: Conv2d (bias), ReLU, PixelUnshuffle, PixelShuffle,
     add; fx-traceable.  ``forward(features)``: (N, 8, h, w), h and w even -> raw steering (N, 6, h, w);
-    with the detail branch (``model.detail``, a study option) the inputs after the steering's go to its
-    own three convs, whose 4 outputs follow the steering's."""
+    with the detail branch (``model.detail``) the inputs after the steering's go to its own three
+    convs, whose 4 outputs follow the steering's (exported as :class:`FullInputSteerNet`)."""
 
     placement = "npu"
 
@@ -152,6 +157,39 @@ class SteerNet(nn.Module):
         if hasattr(self, "detail"):
             raw = torch.cat([raw, self.detail(features[:, self.c_in:])], dim=1)
         return raw
+
+    def graph_form(self) -> nn.Module:
+        """The module the int8 NPU graph is traced from (``quantize.trace``): this net, or with the
+        detail branch the same function without slicing its input (the NPU graph has no slice op)."""
+        return FullInputSteerNet(self) if hasattr(self, "detail") else self
+
+
+class FullInputSteerNet(nn.Module):
+    """A SteerNet with a detail branch, slice-free: the steering's and the branch's first convs read
+    every input channel, with zero weights on the other part's, and the outputs are one concatenation
+    (one scale and zero point in int8).  Built from the net's weights when it is exported."""
+
+    def __init__(self, net: SteerNet):
+        super().__init__()
+        channels = net.c_in + net.detail[0].in_channels
+        self.encode = nn.Sequential(_reading_all(net.encode[0], channels, 0), *net.encode[1:])
+        self.middle, self.decode = net.middle, net.decode
+        self.detail = nn.Sequential(_reading_all(net.detail[0], channels, net.c_in), *net.detail[1:])
+
+    def forward(self, features):
+        encoded = self.encode(features)
+        return torch.cat([self.decode(encoded + self.middle(encoded)), self.detail(features)], dim=1)
+
+
+def _reading_all(conv: nn.Conv2d, channels: int, first: int) -> nn.Conv2d:
+    """``conv`` over ``channels`` inputs, its own from channel ``first`` on and zero weights on the rest."""
+    wide = nn.utils.skip_init(nn.Conv2d, channels, conv.out_channels, conv.kernel_size, padding=conv.padding,
+                              device=conv.weight.device, dtype=conv.weight.dtype)  # no draw from the global RNG
+    with torch.no_grad():
+        wide.weight.zero_()
+        wide.weight[:, first:first + conv.in_channels] = conv.weight
+        wide.bias.copy_(conv.bias)
+    return wide
 
 
 def _conv(c_in: int, c_out: int, k: int) -> nn.Conv2d:

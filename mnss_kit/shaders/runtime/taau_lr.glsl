@@ -119,6 +119,17 @@ Neighbourhood neighbourhood_ratio_at(highp sampler2D color, ivec2 hr, vec2 jitte
     return n;
 }
 
+// The detail patch's luma at HR texel `hr` of an `hr_size` image (ops.taau_lr.detail_luma): `raw`,
+// the raw values of its nearest LR texel `lr`, as bound tanh(raw), bilinear at the texel's offset
+// from that LR texel's centre, the four values sitting at -1/4 and +1/4 LR pixels (0 and 1 here).
+float detail_luma_at(vec4 raw, ivec2 hr, ivec2 lr, ivec2 lr_size, ivec2 hr_size, float bound) {
+    vec4 v = bound * tanh(raw);
+    vec2 t = 0.5 + 2.0 * ((vec2(hr) + 0.5) * (vec2(lr_size) / vec2(hr_size)) - (vec2(lr) + 0.5));
+    float top = v.x + t.x * (v.y - v.x);
+    float bottom = v.z + t.x * (v.w - v.z);
+    return top + t.y * (bottom - top);
+}
+
 float upsampled(float a, float b, float c, float d, vec2 frac) {
     return bilinear_blend(vec4(a), vec4(b), vec4(c), vec4(d), frac).x;
 }

@@ -1,14 +1,16 @@
 #version 310 es
 // taau_lr_accumulate_pass: one invocation per HR texel.
-//   in   npu_output   std430 uint[]  int8 NHWC (1, h', w', 6): the steering net's raw output at LR
-//                                    (h', w' the even size; the first h x w pixels are read)
+//   in   npu_output   std430 uint[]  int8 NHWC (1, h', w', 6 + u_detail_channels): the steering net's
+//                                    raw output at LR (h', w' the even size; the first h x w pixels
+//                                    are read), with a detail branch its 4 raw patch values last
 //        color        LR rgba16f     jittered LR colour, display values
 //        reprojected  HR rgba16f     taau_reproject_pass
 //        evidence     LR rgba32f     taau_lr_evidence_pass (the trust, b)
 //        motion       LR rg32f       LR motion (the history-gain floor holds where it is small)
 //   out  history      HR rgba16f     the blend (rgb) and its accumulated weight (a)
-//        display      HR rgba8       the blend as 8-bit display codes (taau_lr_filter_pass replaces
-//                                    it in models with a display filter)
+//        display      HR rgba8       the blend, plus the detail patch when u_detail_bound > 0, as
+//                                    8-bit display codes (taau_lr_filter_pass replaces it in models
+//                                    with a display filter, and draws the patch there)
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -34,20 +36,33 @@ uniform float u_still_motion_px;
 uniform float u_sample_sigma;
 uniform float u_prior_weight;
 uniform float u_max_weight;
+uniform int u_detail_channels;  // the npu_output's channels after the steering's: 0, or 4 (a detail branch)
+uniform float u_detail_bound;   // > 0: the display gets the detail patch, each value at most this
 
 #include "display.glsl"
 #include "taau_lr.glsl"
 
 const int STEER_CHANNELS = 6;
 
+// Raw value `c` of LR texel `p` in the NPU output.
+float npu_value(ivec2 p, int c) {
+    ivec2 lr_size = textureSize(color, 0);
+    int b = (p.y * (lr_size.x + lr_size.x % 2) + p.x) * (STEER_CHANNELS + u_detail_channels) + c;
+    return dequantize_int8(int8_of_word(npu_output[b / 4], b % 4), u_q_scale, u_q_zero_point);
+}
+
 // Raw value `c` of LR texel `p` (c < 6), or its trust (c == 6).
 float lr_value(ivec2 p, int c) {
-    if (c == STEER_CHANNELS) {
-        return texelFetch(evidence, p, 0).b;
-    }
+    return c == STEER_CHANNELS ? texelFetch(evidence, p, 0).b : npu_value(p, c);
+}
+
+// The detail patch's luma at HR texel `hr` of an `hr_size` image (ops.taau_lr.detail_luma).
+float detail_luma(ivec2 hr, ivec2 hr_size) {
     ivec2 lr_size = textureSize(color, 0);
-    int b = (p.y * (lr_size.x + lr_size.x % 2) + p.x) * STEER_CHANNELS + c;
-    return dequantize_int8(int8_of_word(npu_output[b / 4], b % 4), u_q_scale, u_q_zero_point);
+    ivec2 lr = lr_texel_of(hr, lr_size, hr_size);
+    vec4 raw = vec4(npu_value(lr, STEER_CHANNELS), npu_value(lr, STEER_CHANNELS + 1), npu_value(lr, STEER_CHANNELS + 2),
+                    npu_value(lr, STEER_CHANNELS + 3));
+    return detail_luma_at(raw, hr, lr, lr_size, hr_size, u_detail_bound);
 }
 
 float upsampled_at(BilinearTaps t, int c) {
@@ -85,5 +100,9 @@ void main() {
     }
     vec4 blended = fallback_blend(n, spatial, texelFetch(reprojected, hr, 0), s, u_prior_weight, u_max_weight);
     imageStore(history, hr, round_to_half(blended));
-    imageStore(display, hr, encode_unorm8(vec4(blended.rgb, 1.0)));
+    vec3 shown = blended.rgb;
+    if (u_detail_bound > 0.0) {  // luma only: (Y, 0, 0) in YCoCg adds Y to each of R, G and B
+        shown = clamp(shown + detail_luma(hr, size), 0.0, 1.0);
+    }
+    imageStore(display, hr, encode_unorm8(vec4(shown, 1.0)));
 }

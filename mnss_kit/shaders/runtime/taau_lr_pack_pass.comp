@@ -10,7 +10,10 @@
 //                                    history weight / u_max_weight (each the mean over the s x s HR
 //                                    block; u_scale 0: any scale, the HR texels nearest the LR one),
 //                                    the depth change, the motion spread (at most 4); with
-//                                    u_scale_input != 0 a 9th channel, that value (1 / scale)
+//                                    u_scale_input != 0 a 9th channel, that value (1 / scale); with
+//                                    u_detail != 0 (an integer scale) then u_scale^2 channels, the
+//                                    clamped history's luma at HR texel (dx, dy) of the block in
+//                                    channel dy * u_scale + dx (torch's pixel_unshuffle order)
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -32,18 +35,18 @@ uniform int u_q_use_reciprocal;
 uniform int u_q_rounding;
 uniform int u_q_zero_point;
 uniform float u_scale_input;  // 0: the 8 features; else a 9th channel of this value (1 / scale)
+uniform int u_detail;  // 1: the detail branch's u_scale^2 input channels follow
 
 #include "quant.glsl"
 #include "taau_lr.glsl"
 
 const int CHANNELS = 8;
 
-// The mean over LR texel `p`'s HR block of the clamped history's luma (x), the clamp distance (y)
-// and the history weight (z) (ops.taau_lr.steering_features).
-vec3 block_means(ivec2 p) {
+// The clamp box of LR texel `p`: the YCoCg min and max of its 3x3 colours (ops.taau.neighbourhood_box).
+void colour_box(ivec2 p, out vec3 lo, out vec3 hi) {
     ivec2 last = textureSize(color, 0) - 1;
-    vec3 lo = vec3(1e30);
-    vec3 hi = vec3(-1e30);
+    lo = vec3(1e30);
+    hi = vec3(-1e30);
     for (int dy = -1; dy <= 1; dy++) {
         for (int dx = -1; dx <= 1; dx++) {
             vec3 v = rgb_to_ycocg(colour_texel(color, clamp(p + ivec2(dx, dy), ivec2(0), last)));
@@ -51,6 +54,14 @@ vec3 block_means(ivec2 p) {
             hi = max(hi, v);
         }
     }
+}
+
+// The mean over LR texel `p`'s HR block of the clamped history's luma (x), the clamp distance (y)
+// and the history weight (z) (ops.taau_lr.steering_features).
+vec3 block_means(ivec2 p) {
+    vec3 lo;
+    vec3 hi;
+    colour_box(p, lo, hi);
     // the HR block: s x s texels at an integer scale; at any scale (u_scale 0) the texels whose
     // nearest LR texel is p (ops.taau_lr.block_mean)
     ivec2 first = p * u_scale;
@@ -88,13 +99,29 @@ vec4 features(ivec2 p, int half_index) {
     return vec4(means.y, means.z / u_max_weight, e.r, min(e.g, SPREAD_CAP));
 }
 
-// Channel `c` (0-8) of LR texel `p`: a model with a scale input (u_scale_input != 0) has a 9th
-// channel, the constant 1 / scale (ops.taau_lr.steering_features).
+// The clamped history's luma at HR texel `k` (row-major) of LR texel `p`'s block: a detail input.
+float clamped_luma(ivec2 p, int k) {
+    vec3 lo;
+    vec3 hi;
+    colour_box(p, lo, hi);
+    ivec2 hr = p * u_scale + ivec2(k % u_scale, k / u_scale);
+    float luma = u_reset != 0 ? 0.0 : texelFetch(reprojected, hr, 0).x;
+    return min(max(luma, lo.x), hi.x);
+}
+
+// Channel `c` of LR texel `p` (ops.taau_lr.steering_features): the 8 features, then with a scale
+// input (u_scale_input != 0) the constant 1 / scale, then with u_detail the detail inputs.
 float feature_at(ivec2 p, int c) {
-    if (c == CHANNELS) {
-        return u_scale_input;
+    if (c < CHANNELS) {
+        return features(p, c / 4)[c % 4];
     }
-    return features(p, c / 4)[c % 4];
+    if (u_scale_input != 0.0) {
+        if (c == CHANNELS) {
+            return u_scale_input;
+        }
+        c -= 1;
+    }
+    return clamped_luma(p, c - CHANNELS);
 }
 
 void main() {
@@ -105,8 +132,8 @@ void main() {
     QuantParams q = QuantParams(u_q_scale, u_q_reciprocal, u_q_use_reciprocal != 0, u_q_rounding, u_q_zero_point);
     ivec2 lr_size = textureSize(color, 0);
     int padded_width = lr_size.x + lr_size.x % 2;
-    if (u_scale_input != 0.0) {  // 9 channels: a word may hold two pixels' channels; bytes past the tensor stay 0
-        int channels = CHANNELS + 1;
+    int channels = CHANNELS + (u_scale_input != 0.0 ? 1 : 0) + (u_detail != 0 ? u_scale * u_scale : 0);
+    if (channels != CHANNELS) {  // a word may hold two pixels' channels; bytes past the tensor stay 0
         int total = padded_width * (lr_size.y + lr_size.y % 2) * channels;
         uint bits = 0u;
         for (int k = 0; k < 4; k++) {
