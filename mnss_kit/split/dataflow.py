@@ -162,16 +162,35 @@ def trace_model(model: nn.Module, lr_size: tuple[int, int] = (8, 12)) -> ModelFl
     scale = model.scale
     frame = example_frame(family_of(model), h, w, scale, torch.Generator().manual_seed(0))
     state = model.initial_state(frame)
-    tracer = _Tracer(list(model.stages()), (h, w), scale)
-    with torch.no_grad(), tracer.recording():
-        output, _, next_state = model(frame, state)
+    with _graph_forms(model):  # the stages as the int8 graph holds them (quantize.trace)
+        tracer = _Tracer(list(model.stages()), (h, w), scale)
+        with torch.no_grad(), tracer.recording():
+            output, _, next_state = model(frame, state)
+        macs = count_macs(model, lr_size=lr_size)
     flow = tracer.build(frame, state, next_state, output)
     flow.family = model.config.family
-    macs = count_macs(model, lr_size=lr_size)
     for stage in flow.stages:
         cost = macs.stages.get(stage.name)
         stage.macs_per_pixel = cost.total if cost is not None else 0.0
     return flow
+
+
+@contextlib.contextmanager
+def _graph_forms(model: nn.Module):
+    """Each stage that offers ``graph_form()`` (the same function in ops the NPU graph has, e.g.
+    ntaau_lr's steering net with a detail branch, which otherwise slices its input) swapped in for
+    the block: its ops and MACs are those of the exported graph.  The model is restored after."""
+    swapped = {name: module for name, module, _ in model.stages() if callable(getattr(module, "graph_form", None))}
+    try:
+        for name, module in swapped.items():
+            form = module.graph_form()
+            if form is not module:
+                form.placement = module.placement
+                setattr(model, name, form)
+        yield
+    finally:
+        for name, module in swapped.items():
+            setattr(model, name, module)
 
 
 class _Recorder(TorchDispatchMode):

@@ -103,3 +103,17 @@ def test_a_bundle_refuses_a_fractional_detail_model():
     config.scale = 1.5  # the config refuses it; a plan made from one that slipped through says so too
     with pytest.raises(UserError, match="integer scales only"):
         bundle_gpu_plan(config, {}, (16, 12), {}, "generic")
+
+
+def test_split_places_a_detail_models_steering_on_the_npu_as_it_is_exported():
+    """``mnss-kit split`` traces the slice-free graph form (the ops the bundle's NPU graph holds),
+    so the steering with a branch stays on the NPU and sends its 10 raw values across."""
+    from mnss_kit.split.dataflow import npu_graph_refusal, trace_model
+
+    model = build_model(NTAAULRConfig(detail=True))
+    steer = model.steer
+    flow = trace_model(model)
+    stage = flow.stage("steer")
+    assert npu_graph_refusal(stage) == "" and "STRIDED_SLICE" not in {op.op for op in stage.ops}
+    assert [t.traced_shape[1] for t in stage.outputs] == [10]
+    assert model.steer is steer  # the model is left as it was
