@@ -28,8 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--warmup", type=int, default=DEFAULT_WARMUP,
                         help=f"frames run before the held-back ones to build up history, not scored (default {DEFAULT_WARMUP})")
     parser.add_argument("--detail", action="store_true",
-                        help="ntaau_lr models: after the steering, fit a detail branch that sharpens the display "
-                             "(runs in torch only; the GPU passes do not draw it yet)")
+                        help="ntaau_lr models at an integer scale: after the steering, fit a detail branch that "
+                             "sharpens the display (OUT/detail/model.pt; more NPU work and boundary traffic)")
     parser.add_argument("--sequences", nargs="+", metavar="NAME", help="only these sequences of the capture")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
 

@@ -43,15 +43,14 @@ def check_detail(record: dict, model: str) -> None:
         raise UserError(f"--detail: {model} is x{record.get('scale')}; the detail branch takes integer scales only")
 
 
-def with_empty_branch(path: Path, width: int | None = None) -> tuple[torch.nn.Module, dict]:
+def with_empty_branch(path: Path, settings: dict | None = None) -> tuple[torch.nn.Module, dict]:
     """``(model, record)``: the checkpoint at ``path`` plus a detail branch that draws nothing (the
-    branch's own initial weights, last conv zero), so the model starts as the checkpoint; ``width``
-    the branch's (default ``model.detail_width``'s)."""
+    branch's own initial weights, last conv zero), so the model starts as the checkpoint;
+    ``settings`` model settings of the branch (``detail_width``, ``detail_bound``) other than the defaults."""
     from ..train.init import initial_weights
 
     record, _ = checkpoint.read_record(path)
-    widths = {} if width is None else {"detail_width": width}
-    config = model_config_from_dict({**record["config"], "detail": True, **widths}, source=f"{path} record")
+    config = model_config_from_dict({**record["config"], "detail": True, **(settings or {})}, source=f"{path} record")
     torch.manual_seed(0)
     model = build_model(config)
     weights, _ = initial_weights(config, str(path))

@@ -68,10 +68,12 @@ def main() -> None:
     p.add_argument("--out", required=True, type=Path, help="work directory: the fitted model.pt and the judgement")
     p.add_argument("--minutes", type=float, default=10.0, help="fitting time (recording not included)")
     p.add_argument("--width", type=int, default=None, help="the branch's width (default: model.detail_width's)")
+    p.add_argument("--bound", type=float, default=None, help="the patch's bound (default: model.detail_bound's)")
     p.add_argument("--input", choices=("history", "display"), default="history", help="what the branch reads")
     args = p.parse_args()
     torch.set_num_threads(1)
-    model, record = detail.with_empty_branch(checkpoint.resolve(args.model), args.width)
+    settings = {k: v for k, v in (("detail_width", args.width), ("detail_bound", args.bound)) if v is not None}
+    model, record = detail.with_empty_branch(checkpoint.resolve(args.model), settings)
     recorded = detail.record_frames(model, args.finetune_out / "split" / "tune", finetune.DEFAULT_WARMUP)
     if args.input == "display":
         recorded = ([display_blocks(d[None], int(model.scale))[0].half() for d in recorded[1]], *recorded[1:])
