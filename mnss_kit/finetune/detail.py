@@ -33,6 +33,9 @@ BATCH = 8
 LR = 1.0e-3  # the branch starts from zero and has one capture to learn: a base run's rate, not a fine-tune's
 SAVE_EVERY_S = 60.0  # an interrupted fit loses at most this much
 RECORD_BYTES = 2 << 30  # recorded frames beyond this are thinned evenly (float16)
+# the branch a fine-tune fits: width 8 gained as much as 16 and 32 on a factory capture (+0.35, +0.36,
+# +0.39 dB) at a third of 16's MACs; a bound of 0.3 gained 0.05 dB more than 0.1 (docs/studies/ntaau_lr.md)
+BRANCH = {"detail_width": 8, "detail_bound": 0.3}
 
 
 def check_detail(record: dict, model: str) -> None:
@@ -67,16 +70,13 @@ def record_frames(model, tune_dir: Path, warmup: int, progress: bool = True):
     from ..eval.frames import iter_frames
     from ..eval.methods import model_method
 
-    captured = {}
-    c_in = model.steer.c_in
-    hook = model.steer.register_forward_hook(lambda m, args, out: captured.__setitem__("x", args[0][:, c_in:]))
     seqs = fmt.find_sequences(tune_dir)
     metas = [fmt.read_meta(s) for s in seqs]
     kept = _kept_indices([(s.name, len(m.frames)) for s, m in zip(seqs, metas)], warmup,
                           max(m.lr_size[0] * m.lr_size[1] for m in metas), int(model.scale))
     inputs, displays, references = [], [], []
     bar = tqdm(total=sum(len(m.frames) for m in metas), unit="frame", desc="record", disable=None if progress else True)
-    try:
+    with model.recording_detail_inputs() as branch_inputs:
         for seq, meta in zip(seqs, metas):
             method, state = model_method(model), None
             for frame in iter_frames(seq, meta):
@@ -84,13 +84,12 @@ def record_frames(model, tune_dir: Path, warmup: int, progress: bool = True):
                     output, _, state = method(frame.inputs, state)
                 if (seq.name, frame.index) in kept:
                     h, w = output.shape[-2] // int(model.scale), output.shape[-1] // int(model.scale)
-                    inputs.append(captured["x"][0, :, :h, :w].half())
+                    inputs.append(branch_inputs[-1][0, :, :h, :w].half())
                     displays.append(output[0].clamp(0, 1).half())
                     references.append(torch.from_numpy(np.ascontiguousarray(frame.reference)).permute(2, 0, 1).half())
+                branch_inputs.clear()
                 bar.update(1)
-    finally:
-        hook.remove()
-        bar.close()
+    bar.close()
     if not inputs:
         raise UserError(f"--detail: no tuned frame after the {warmup}-frame warm-up to fit the branch on")
     return inputs, displays, references
@@ -114,14 +113,14 @@ def fit_branch(model, recorded, seconds: float, last: Path, record: dict, progre
     fitting in all (resumed from ``last`` when it exists); returns the steps taken."""
     from tqdm import tqdm
 
-    from ..model.ntaau_lr.net import detail_luma
     from ..train.state import load_last, save_last
 
     inputs, displays, references = recorded
+    branch = model.detail_parameters()
     for name, p in model.named_parameters():
-        p.requires_grad_(name.startswith("steer.detail."))
-    branch, bound, s = model.steer.detail, model.config.detail_bound, int(model.scale)
-    optimizer = torch.optim.Adam(branch.parameters(), lr=LR)
+        p.requires_grad_(name in branch)
+    s = int(model.scale)
+    optimizer = torch.optim.Adam(branch.values(), lr=LR)
     steps, elapsed = 0, 0.0
     if last.is_file():
         _, state = load_last(last, model, optimizer)
@@ -135,7 +134,7 @@ def fit_branch(model, recorded, seconds: float, last: Path, record: dict, progre
     started, saved = time.monotonic() - elapsed, time.monotonic()
     while elapsed < seconds:
         x_in, display, reference = _batch(inputs, displays, references, crop_h, crop_w, s)
-        drawn = (display + detail_luma(branch(x_in), (s * crop_h, s * crop_w), bound)).clamp(0, 1)
+        drawn = (display + model.detail_patch(x_in, (s * crop_h, s * crop_w))).clamp(0, 1)
         loss = (drawn - reference).abs().mean()
         optimizer.zero_grad()
         loss.backward()
@@ -176,7 +175,7 @@ def fit_detail(tuned: Path, tune_dir: Path, out_dir: Path, minutes: float, warmu
         log.info("detail branch already fitted: %s", final)
         return final
     start = time.monotonic()
-    model, record = with_empty_branch(tuned)
+    model, record = with_empty_branch(tuned, BRANCH)
     recorded = record_frames(model, tune_dir, warmup, progress)
     recording_s = time.monotonic() - start
     steps = fit_branch(model, recorded, max(0.0, minutes * 60.0 - recording_s), out_dir / LAST, record, progress)

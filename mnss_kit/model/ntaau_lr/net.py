@@ -42,6 +42,8 @@ blend, ``weight`` (N,1,H,W) its accumulated weight, ``depth`` (N,1,h,w) the last
 
 from __future__ import annotations
 
+import contextlib
+
 import torch
 import torch.nn.functional as F
 from torch import nn
@@ -301,6 +303,26 @@ class NTAAULR(nn.Module):
             return self.output_size
         height, width = hr_dims(lr_hw, scale)
         return width, height
+
+    # The detail branch as a fine-tune fits it (``finetune.detail``): display-only, so it can be fitted
+    # on inputs and displays recorded once.  A model without the branch has none of these.
+    @contextlib.contextmanager
+    def recording_detail_inputs(self):
+        """Within the block, each forward appends the branch's input (N, s*s, h', w') to the list yielded."""
+        recorded, c_in = [], self.steer.c_in
+        hook = self.steer.register_forward_hook(lambda module, args, out: recorded.append(args[0][:, c_in:]))
+        try:
+            yield recorded
+        finally:
+            hook.remove()
+
+    def detail_parameters(self) -> dict[str, nn.Parameter]:
+        """The branch's parameters by their names in the model."""
+        return {f"steer.detail.{k}": p for k, p in self.steer.detail.named_parameters()}
+
+    def detail_patch(self, branch_input: torch.Tensor, hr_hw: tuple[int, int]) -> torch.Tensor:
+        """The luma patch (N, 1, H, W) the branch draws from ``branch_input`` (N, s*s, h, w)."""
+        return detail_luma(self.steer.detail(branch_input), hr_hw, self.config.detail_bound)
 
     def stages(self) -> list[tuple[str, nn.Module, str]]:
         return [(n, getattr(self, n), getattr(self, n).placement) for n in STAGE_ORDER]
