@@ -113,14 +113,12 @@ def fit_branch(model, recorded, seconds: float, last: Path, record: dict, progre
     fitting in all (resumed from ``last`` when it exists); returns the steps taken."""
     from tqdm import tqdm
 
+    from ..train.run import trained_parameters
     from ..train.state import load_last, save_last
 
     inputs, displays, references = recorded
-    branch = model.detail_parameters()
-    for name, p in model.named_parameters():
-        p.requires_grad_(name in branch)
     s = int(model.scale)
-    optimizer = torch.optim.Adam(branch.values(), lr=LR)
+    optimizer = torch.optim.Adam(trained_parameters(model, list(model.detail_parameters())), lr=LR)
     steps, elapsed = 0, 0.0
     if last.is_file():
         _, state = load_last(last, model, optimizer)

@@ -69,7 +69,8 @@ def _with_added_branch(theirs: dict, model: nn.Module, source: nn.Module) -> dic
     """``theirs`` plus the tensors of ntaau_lr's detail branch from ``model`` when the checkpoint has none."""
     if not getattr(model.config, "detail", False) or getattr(source.config, "detail", False):
         return theirs
-    return {**theirs, **{k: v for k, v in model.state_dict().items() if k.startswith("steer.detail.")}}
+    branch = model.detail_parameters()
+    return {**theirs, **{k: v for k, v in model.state_dict().items() if k in branch}}
 
 
 def _check_tensors(ours: dict, theirs: dict, name: str) -> None:

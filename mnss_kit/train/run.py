@@ -72,7 +72,7 @@ def train(experiment: ExperimentConfig, out_dir: str | Path, resume: bool = Fals
         distributed.teardown(world)
 
 
-def _trained_parameters(model: nn.Module, prefixes: list[str] | None) -> list[nn.Parameter]:
+def trained_parameters(model: nn.Module, prefixes: list[str] | None) -> list[nn.Parameter]:
     """The parameters ``train.trainable`` names (all when None); the others get no gradient."""
     if prefixes is None:
         return list(model.parameters())
@@ -106,7 +106,7 @@ def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: 
     torch.set_num_threads(threads)
     _check_out_dir(out_dir, resume)
     weights, initial = initial_weights(experiment.model, init) if init else (None, None)  # before any data work
-    _trained_parameters(build_model(experiment.model), cfg.trainable)  # a prefix naming nothing: refused before it too
+    trained_parameters(build_model(experiment.model), cfg.trainable)  # a prefix naming nothing: refused before it too
     if world.is_main:
         ensure_data(cfg, experiment.data, progress)
     frame_scale = takes_frame_scale(experiment.model)
@@ -117,7 +117,7 @@ def _train(experiment: ExperimentConfig, out_dir: Path, resume: bool, progress: 
     model = build_model(experiment.model)
     if weights is not None:
         model.load_state_dict(weights)
-    optimizer = torch.optim.Adam(_trained_parameters(model, cfg.trainable), lr=cfg.lr, betas=cfg.betas, eps=cfg.eps)
+    optimizer = torch.optim.Adam(trained_parameters(model, cfg.trainable), lr=cfg.lr, betas=cfg.betas, eps=cfg.eps)
     run = _resume(out_dir, model, optimizer, experiment) if resume else RunState(init=initial)
     record = _record(experiment, windows)
     record["init"] = run.init
