@@ -46,19 +46,12 @@ def test_app_frame_pipeline_runs_an_ntaau_lr_bundle(gl_classes, java_core, synth
     the frame, NPU tensors at the LR size; with a detail branch, 12 NPU input and 10 output channels
     and the patch on the display): the core's verify and self-test, then the GL pipeline over its
     golden frames, every GL-produced tensor within the golden tolerance."""
-    import torch
+    from random_ntaau_lr import random_ntaau_lr
 
     from mnss_kit.cli import main
     from mnss_kit.model import checkpoint
-    from mnss_kit.model.families import build_model, randomise_convs
-    from mnss_kit.model.ntaau_lr.config import NTAAULRConfig
 
-    torch.manual_seed(0)
-    model = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1, detail=detail)), noise=0.5)
-    if detail:  # raw values of a few units, so the patch keeps levels under the output's one int8 scale
-        with torch.no_grad():
-            for p in [*model.steer.decode[-1].parameters(), *model.steer.detail[-1].parameters()]:
-                p.mul_(0.05)
+    model = random_ntaau_lr(detail=detail)
     ckpt = checkpoint.save(tmp_path / "ntaau_lr.pt", model, {"jitter_pattern": "grid"})
     bundle = tmp_path / "ntaau_lr"
     assert main(["export", str(ckpt), "--out", str(bundle), "--resolution", "64x48", "--data", str(synthetic_dataset),

@@ -20,6 +20,7 @@ from mnss_kit.model.ntaau_lr.config import NTAAULRConfig
 from mnss_kit.ops import taau as ops_taau
 from mnss_kit.ops import taau_lr
 from ntaau_lr_checks import assert_close, assert_golden_frames, hwc, npu_differences
+from random_ntaau_lr import random_ntaau_lr
 
 
 ATOL = 1e-5  # torch and numpy, float32 in a different order
@@ -146,11 +147,8 @@ GOLDEN_FRAMES = 4
 
 @pytest.fixture(scope="module", params=list(BUNDLES))
 def bundle(request, tmp_path_factory):
-    """A randomly initialised ntaau_lr model (non-zero last layer) exported with 4 golden frames
-    from a tiny render at the LR size, and that render.  With a detail branch the steering's and
-    the branch's last convs are scaled down to raw values of a few units, as a trained net's: the
-    two share the NPU output's int8 scale, and a random net's steering (hundreds) would round the
-    patch to the zero point."""
+    """A randomly initialised ntaau_lr model (non-zero last layer, :func:`random_ntaau_lr`) exported
+    with 4 golden frames from a tiny render at the LR size, and that render."""
     from mnss_kit.cli import main
     from mnss_kit.model import checkpoint
 
@@ -159,13 +157,8 @@ def bundle(request, tmp_path_factory):
     data = root / "data"
     assert main(["render", "tiny_test", "--out", str(data), "--set", f"frames={GOLDEN_FRAMES}", "--set", "hr_samples=1",
                  "--set", f"lr_size=[{w},{h}]", "--no-progress"]) == 0
-    torch.manual_seed(0)
-    model = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1, **options)), noise=0.5)
+    model = random_ntaau_lr(**options)
     assert model.steer.decode[1].weight.abs().max() > 0
-    if model.config.detail:
-        with torch.no_grad():
-            for p in [*model.steer.decode[-1].parameters(), *model.steer.detail[-1].parameters()]:
-                p.mul_(0.05)
     ckpt = checkpoint.save(root / "ntaau_lr.pt", model, {"jitter_pattern": "grid"})
     out = root / "bundle"
     assert main(["export", str(ckpt), "--out", str(out), "--data", str(data), "--resolution", f"{2 * w}x{2 * h}",
