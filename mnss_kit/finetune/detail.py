@@ -38,12 +38,13 @@ RECORD_BYTES = 2 << 30  # recorded frames beyond this are thinned evenly (float1
 BRANCH = {"detail_width": 8, "detail_bound": 0.3}
 
 
-def check_detail(record: dict, model: str) -> None:
-    """One line when ``model`` cannot take a detail branch."""
+def check_detail(record: dict, model: str, what: str = "--detail") -> None:
+    """One line, led by ``what``, when ``model`` (its checkpoint ``record``'s family and scale) cannot
+    take a detail branch."""
     if record.get("family") != "ntaau_lr":
-        raise UserError(f"--detail: {model} is a {record.get('family')} model; only ntaau_lr models take a detail branch")
+        raise UserError(f"{what}: {model} is a {record.get('family')} model; only ntaau_lr models take a detail branch")
     if not float(record.get("scale")).is_integer():
-        raise UserError(f"--detail: {model} is x{record.get('scale')}; the detail branch takes integer scales only")
+        raise UserError(f"{what}: {model} is x{record.get('scale')}; the detail branch takes integer scales only")
 
 
 def with_empty_branch(path: Path, settings: dict | None = None) -> tuple[torch.nn.Module, dict]:
@@ -61,9 +62,10 @@ def with_empty_branch(path: Path, settings: dict | None = None) -> tuple[torch.n
     return model.eval(), record
 
 
-def record_frames(model, tune_dir: Path, warmup: int, progress: bool = True):
+def record_frames(model, tune_dir: Path | list[Path], warmup: int, progress: bool = True):
     """``(branch inputs, displays, references)``: lists of float16 (s*s, h, w), (3, H, W) and (3, H, W)
-    of every tuned frame from index ``warmup`` on, thinned evenly to :data:`RECORD_BYTES`."""
+    of every frame of ``tune_dir`` (sequences or directories of them) from index ``warmup`` on,
+    thinned evenly to :data:`RECORD_BYTES`."""
     from tqdm import tqdm
 
     from ..dataset import format as fmt
@@ -163,21 +165,27 @@ def _batch(inputs, displays, references, crop_h: int, crop_w: int, s: int):
     return tuple(torch.stack(p).float() for p in picked)
 
 
-def fit_detail(tuned: Path, tune_dir: Path, out_dir: Path, minutes: float, warmup: int, progress: bool = True) -> Path:
+def fit_detail(tuned: Path, tune_dir: Path | list[Path], out_dir: Path, minutes: float, warmup: int,
+               progress: bool = True) -> Path:
     """``out_dir/model.pt``: the model at ``tuned`` with a detail branch fitted on ``tune_dir`` for
-    ``minutes`` (recording included); kept when done, resumed from ``last.pt`` when cut."""
+    ``minutes`` (recording included); kept when done, resumed from ``last.pt`` when cut.  A fit of
+    another model in ``out_dir`` is refused in one line."""
+    from ..fileio import sha256_file
     from ..train.state import FINAL, LAST
 
-    final = out_dir / FINAL
+    final, last, base = out_dir / FINAL, out_dir / LAST, sha256_file(tuned)
+    for done in (p for p in (final, last) if p.is_file()):
+        if (checkpoint.read_record(done)[0].get("detail_fit") or {}).get("base_sha256", base) != base:
+            raise UserError(f"{done} fitted a branch to another model than {tuned} (remove {out_dir} or choose another output)")
     if final.is_file():
         log.info("detail branch already fitted: %s", final)
         return final
     start = time.monotonic()
     model, record = with_empty_branch(tuned, BRANCH)
+    record = {**record, "detail_fit": {"base_sha256": base, "minutes": minutes}}  # in last.pt too: what it resumes
     recorded = record_frames(model, tune_dir, warmup, progress)
     recording_s = time.monotonic() - start
-    steps = fit_branch(model, recorded, max(0.0, minutes * 60.0 - recording_s), out_dir / LAST, record, progress)
-    record = {**record, "detail_fit": {"minutes": minutes, "frames": len(recorded[0]), "steps": steps, "lr": LR,
-                                       "crop": CROP, "batch": BATCH}}
+    steps = fit_branch(model, recorded, max(0.0, minutes * 60.0 - recording_s), last, record, progress)
+    record["detail_fit"].update(frames=len(recorded[0]), steps=steps, lr=LR, crop=CROP, batch=BATCH)
     checkpoint.save(final, model, record)
     return final

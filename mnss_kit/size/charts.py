@@ -39,8 +39,25 @@ def markdown(doc: dict) -> str:
              f"{len(s['test_sequences'])} held-out sequence(s) never trained on ({', '.join(Path(t).name for t in s['test_sequences'])})"
              + (f", first {s['max_frames']} frames each" if s.get("max_frames") else "")
              + f". Device milliseconds are estimates at {s['output_size'][0]}x{s['output_size'][1]} output."
-             + seed_note(rows))
+             + seed_note(rows) + detail_note(rows, s))
     return "\n".join([summary, "", facts, "", *lines]) + "\n"
+
+
+def detail_note(rows: list[dict], settings: dict) -> str:
+    """With ``CONFIG+detail`` rungs: what they are, and each one's gain over its CONFIG rung seed by
+    seed (the same trained steering with and without the branch, so seed noise cancels)."""
+    from .run import DETAIL, base_config
+
+    by_name = {r["config"]: r for r in rows}
+    gains = []
+    for row in (r for r in rows if r["config"].endswith(DETAIL) and base_config(r["config"]) in by_name):
+        base = by_name[base_config(row["config"])]
+        pairs = zip(row.get("seeds") or [row], base.get("seeds") or [base])
+        gains.append(f"{row['config']} " + ", ".join(f"{a['psnr'] - b['psnr']:+.2f}" for a, b in pairs) + " dB")
+    if not gains:
+        return ""
+    return (f" A CONFIG{DETAIL} rung is CONFIG's with the detail branch of finetune --detail fitted on the training "
+            f"sequences ({settings.get('detail_minutes', 0):g} min); its gain over CONFIG, seed by seed: {'; '.join(gains)}.")
 
 
 def seed_note(rows: list[dict]) -> str:

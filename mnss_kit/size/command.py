@@ -26,7 +26,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the scale to size at, which the data must be at: 2, 3, 4 or a quality mode in [1.25, 4] "
                              "such as 1.5 (default: the data's)")
     parser.add_argument("--ladder", nargs="+", metavar="CONFIG",
-                        help="model configs to try; a config at another scale is trained at the data's when its family "
+                        help="model configs to try, CONFIG+detail for an ntaau_lr config with a detail branch fitted on "
+                             "the scene (as finetune --detail fits it); a config at another scale is trained at the data's when its family "
                              "runs at any scale, refused otherwise (default: every shipped config at the scale, or at a "
                              "scale none is shipped at, such as 1.5, every config of a family that runs at any scale)")
     parser.add_argument("--steps", type=_positive_int, default=2000, help="training steps per rung (default: %(default)s)")
@@ -34,6 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seeds", type=_positive_int, default=1, metavar="N",
                         help="train each rung N times (the config's seed, then the next ones) and judge it by the mean; "
                              "its best seed is the checkpoint export takes (default: %(default)s)")
+    parser.add_argument("--detail-minutes", type=float, metavar="M",
+                        help="fitting time of the branch of each CONFIG+detail rung, recording included (default: "
+                             "what mnss-kit finetune --detail gives it in its default budget)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                         help="typed override for every rung, e.g. train.batch_size=8 (repeatable)")
     parser.add_argument("--output-size", default="1280x720", metavar="WxH", help="HR size of the device estimates (default: %(default)s)")
@@ -58,8 +62,9 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--budget-ms and --device go together: a budget is estimated ms on one device profile")
     if args.budget_ms is not None and not args.budget_ms > 0:
         raise UserError(f"--budget-ms must be positive, got {args.budget_ms}")
-    if args.minutes is not None and not args.minutes > 0:
-        raise UserError(f"--minutes must be positive, got {args.minutes}")
+    for flag, value in (("--minutes", args.minutes), ("--detail-minutes", args.detail_minutes)):
+        if value is not None and not value > 0:
+            raise UserError(f"{flag} must be positive, got {value}")
     budget = Budget(args.device, args.budget_ms) if args.device else None
     if budget:
         from ..split.device import load_device
@@ -72,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
     request = SizeRequest(data=args.data, targets=targets, out=args.out, test=args.test, held_out=args.held_out,
                           ladder=args.ladder, overrides=args.overrides, steps=args.steps, minutes=args.minutes, budget=budget,
                           output_size=parse_resolution(args.output_size, "--output-size"), max_frames=args.max_frames,
-                          scale=scale, seeds=args.seeds, progress=not args.no_progress)
+                          scale=scale, seeds=args.seeds, progress=not args.no_progress,
+                          **({} if args.detail_minutes is None else {"detail_minutes": args.detail_minutes}))
     doc = run_size(request)
     table = markdown(doc)
     atomic_write_text(args.out / "size.md", table)

@@ -17,11 +17,16 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..fileio import atomic_write_json, check_format, json_safe, portable_path, read_json, sha256_file
+from ..finetune.run import DEFAULT_MINUTES as FINETUNE_MINUTES, DETAIL_SHARE
 from .choice import FORMAT, VERSION
 from .select import Budget, Target, choose
 
 log = logging.getLogger(__name__)
 BASELINES = ("bicubic", "taau")
+# a rung "CONFIG+detail": CONFIG's rung, then the detail branch of ``finetune --detail`` fitted on the
+# training sequences for ``SizeRequest.detail_minutes`` (ntaau_lr, integer scales)
+DETAIL = "+detail"
+DETAIL_MINUTES = FINETUNE_MINUTES * DETAIL_SHARE  # the branch's fit in a fine-tune of the default budget
 
 
 @dataclass
@@ -41,6 +46,7 @@ class SizeRequest:
     max_frames: int | None = None  # per held-out sequence
     scale: int | float | None = None  # a parsed --scale, which the data must be at (default: the data's)
     seeds: int = 1  # training runs per rung, judged by their mean
+    detail_minutes: float = DETAIL_MINUTES  # a CONFIG+detail rung's branch fit, recording included
     progress: bool = True
 
 
@@ -60,6 +66,7 @@ def run_size(request: SizeRequest) -> dict:
         "test_sequences": [portable_path(s) for s in test_seqs],
         "scale": scale, "overrides": list(request.overrides), "steps": request.steps, "minutes": request.minutes, "max_frames": request.max_frames,
         "devices": devices, "output_size": list(request.output_size), "seeds": request.seeds,
+        "detail_minutes": request.detail_minutes,
     }
     doc = _resume(request.out / "size.json", settings)
     if not doc["baselines"]:
@@ -135,14 +142,34 @@ def ladder_configs(names: list[str] | None, scale: int | float, what: str = "the
 
     rows = {r["name"]: r for r in config_rows()}
     names = names or default_ladder(rows, scale)
-    unknown = [n for n in names if n not in rows]
+    unknown = [n for n in names if base_config(n) not in rows]
     if unknown:
-        raise UserError(f"unknown model config '{unknown[0]}' (shipped: {', '.join(sorted(rows))})")
-    for name in (n for n in names if rows[n]["scale"] != scale):
-        _check_runs_at(name, scale, what)
+        raise UserError(f"unknown model config '{base_config(unknown[0])}' (shipped: {', '.join(sorted(rows))}; "
+                        f"CONFIG{DETAIL} adds a detail branch)")
+    for name in (n for n in names if rows[base_config(n)]["scale"] != scale):
+        _check_runs_at(base_config(name), scale, what)
+    macs = {n: rows[n]["macs_per_pixel"] if n in rows else _detail_rung_macs(n, scale) for n in names}
     if len(names) < 2:
         raise UserError(f"a ladder needs at least two model configs at x{scale}, got {len(names)}")
-    return sorted(names, key=lambda n: rows[n]["macs_per_pixel"])
+    return sorted(names, key=macs.get)
+
+
+def base_config(name: str) -> str:
+    """The model config a rung trains: ``name`` without :data:`DETAIL`."""
+    return name.removesuffix(DETAIL)
+
+
+def _detail_rung_macs(name: str, scale: int | float) -> float:
+    """MACs per pixel of rung ``CONFIG+detail`` (refused in one line when CONFIG cannot take the branch)."""
+    from ..config import to_dict
+    from ..finetune.detail import BRANCH, check_detail
+    from ..model.config import load_model_config, model_config_from_dict
+    from ..model.families import build_model
+    from ..model.macs import count_macs
+
+    config = load_model_config(base_config(name))
+    check_detail({"family": config.family, "scale": scale}, base_config(name), what=f"rung '{name}'")
+    return count_macs(build_model(model_config_from_dict({**to_dict(config), "detail": True, **BRANCH}))).total
 
 
 def default_ladder(rows: dict[str, dict], scale: int | float) -> list[str]:
@@ -178,13 +205,17 @@ def rung_experiment(name: str, train_seqs: list[Path], scale: int | float, reque
 
 def train_rung(name: str, train_seqs: list[Path], scale: int | float, request: SizeRequest, seed_run: int = 0) -> Path:
     """``OUT/runs/<name>/model.pt`` (``<name>_seed<seed>`` for the ``seed_run``-th run past the first):
-    trained now, resumed, or reused when trained with these settings."""
+    trained now, resumed, or reused when trained with these settings.  A ``CONFIG+detail`` rung is
+    CONFIG's (trained as its own rung) with a detail branch fitted on ``train_seqs``."""
     from ..model.checkpoint import read_record
     from ..train.run import FINAL, LAST, train
 
-    experiment = rung_experiment(name, train_seqs, scale, request)
+    experiment = rung_experiment(base_config(name), train_seqs, scale, request)
     experiment.train.seed += seed_run
     run_dir = request.out / "runs" / (name if seed_run == 0 else f"{name}_seed{experiment.train.seed}")
+    if name != base_config(name):
+        return _fit_detail_rung(train_rung(base_config(name), train_seqs, scale, request, seed_run), train_seqs,
+                                run_dir, request)
     final, last = run_dir / FINAL, run_dir / LAST
     if final.is_file():
         record, _ = read_record(final)
@@ -197,6 +228,14 @@ def train_rung(name: str, train_seqs: list[Path], scale: int | float, request: S
     if resume and not _trained_as(read_record(last)[0], experiment):
         raise UserError(f"{last} is a run with other settings than this ladder's (remove it or choose another --out)")
     return train(experiment, run_dir, resume=resume, progress=request.progress)
+
+
+def _fit_detail_rung(base: Path, train_seqs: list[Path], run_dir: Path, request: SizeRequest) -> Path:
+    """``run_dir/model.pt``: the rung at ``base`` with ``finetune --detail``'s branch fitted on ``train_seqs``."""
+    from ..finetune.detail import fit_detail
+    from ..finetune.run import DEFAULT_WARMUP
+
+    return fit_detail(base, train_seqs, run_dir, request.detail_minutes, DEFAULT_WARMUP, request.progress)
 
 
 def _finished(record: dict) -> bool:

@@ -1,14 +1,21 @@
 #!/usr/bin/env python
-"""``mnss-kit size`` on two built-in scenes of different complexity, and docs/studies/size.md from its results.
+"""``mnss-kit size`` on two built-in scenes each, for two ladders, and their study pages from the results.
 
-The flat top-down arena and the dense foliage flight are each a scene of their own: the ladder
-trains on that scene's two training sequences of ``train_x2`` and is judged on that scene's
-held-out sequence of ``test_x2`` (never trained on), with the same target on both scenes.
+Each scene is judged on a held-out sequence of its own that no rung trains on, with the same targets
+on both scenes of a study:
 
-    python scripts/studies/size_study.py --data data      # data/train_x2 and data/test_x2 (rendered when missing)
-    python scripts/studies/size_study.py --doc-only       # rewrite docs/studies/size.md from benchmarks/results/size/*/size.json
+- ``mnss``: the mnss ladder on the flat top-down arena and the dense foliage flight, trained on each
+  scene's two sequences of ``train_x2``, judged on its ``test_x2`` sequence (docs/studies/size.md);
+- ``ntaau_lr``: the ntaau_lr ladder, with ``CONFIG+detail`` rungs (the detail branch of ``finetune
+  --detail`` fitted on the scene), on the furnished rooms and the open plaza of ``train_engine_x2``
+  (no jitter), each scene's last sequence held out, two seeds per rung
+  (docs/studies/size_ntaau_lr.md).
 
-Each scene's run lives in ``benchmarks/results/size/<scene>/`` and continues where it stopped.
+    python scripts/studies/size_study.py --data data                   # the mnss study (renders what is missing)
+    python scripts/studies/size_study.py --data data --study ntaau_lr
+    python scripts/studies/size_study.py --study ntaau_lr --doc-only   # rewrite the page from its size.json files
+
+Each scene's run lives in ``benchmarks/results/<results>/<scene>/`` and continues where it stopped.
 """
 
 from __future__ import annotations
@@ -16,6 +23,7 @@ from __future__ import annotations
 import argparse
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
@@ -23,67 +31,98 @@ sys.path.insert(0, str(REPO))
 
 from mnss_kit.fileio import atomic_write_text, read_json  # noqa: E402
 
-RESULTS = REPO / "benchmarks" / "results" / "size"
-DOC = REPO / "docs" / "studies" / "size.md"
-CHARTS = REPO / "docs" / "studies" / "size"
-SCENES = {  # scene -> (training sequences of train_x2, held-out sequence of test_x2)
-    "arena": (["arena_s1", "arena_s2"], "arena_test"),
-    "flight": (["flight_s5", "flight_s6"], "flight_test"),
+
+@dataclass(frozen=True)
+class Study:
+    page: str  # under docs/studies/
+    results: str  # under benchmarks/results/
+    renders: tuple[str, ...]  # render configs the scenes come from
+    scenes: dict  # scene -> (training sequences, held-out sequences or None: the last of the training ones)
+    ladder: tuple[str, ...]
+    targets: tuple[str, ...]
+    steps: int
+    options: tuple[str, ...]  # further mnss-kit size arguments
+    lead: str  # the page's opening line: what the reader can do with it
+    about: str  # the ladder and the scenes, after the lead
+
+
+STUDIES = {
+    "mnss": Study(
+        page="size.md", results="size", renders=("train_x2", "test_x2"),
+        scenes={"arena": (["train_x2/arena_s1", "train_x2/arena_s2"], ["test_x2/arena_test"]),
+                "flight": (["train_x2/flight_s5", "train_x2/flight_s6"], ["test_x2/flight_test"])},
+        ladder=("mnss_x2_tiny", "mnss_x2_small", "mnss_x2"), targets=("within:0.3", "taau:0"), steps=1500, options=(),
+        lead="This page records which model size `mnss-kit size` picks for two scenes of different complexity, and why.",
+        about="on two built-in scenes of clearly different complexity."),
+    "ntaau_lr": Study(
+        page="size_ntaau_lr.md", results="size_ntaau_lr", renders=("train_engine_x2",),
+        scenes={"rooms": ([f"train_engine_x2/rooms_e{i}" for i in (1, 7, 8, 10)], None),
+                "plaza": ([f"train_engine_x2/plaza_e{i}" for i in (21, 22, 23)], None)},
+        ladder=("ntaau_lr_x2_small", "ntaau_lr_x2_small+detail", "ntaau_lr_x2", "ntaau_lr_x2+detail", "ntaau_lr_x2_large"),
+        targets=("within:0.25", "taau:0"), steps=2000,
+        options=("--held-out", "1", "--minutes", "28", "--max-frames", "24", "--set", "train.threads=1", "--seeds", "2"),
+        lead="This page records which rung of the ntaau_lr ladder `mnss-kit size` picks for two scenes, and why: "
+             "where the scene needs the detail branch a steering net alone cannot give.",
+        about="with two `CONFIG+detail` rungs (CONFIG's trained steering plus the detail branch of "
+              "`mnss-kit finetune --detail`, fitted on the scene's training sequences), each rung trained with two seeds "
+              "and judged by their mean, on the furnished rooms and the open plaza of `train_engine_x2` (no jitter), "
+              "each scene's last sequence held out."),
 }
-LADDER = ["mnss_x2_tiny", "mnss_x2_small", "mnss_x2"]
-TARGETS = ["within:0.3", "taau:0"]  # close to the largest rung, and never below the free TAAU
-# other targets a user might give, applied to the same rows (no training): where the choices part
-SWEEP = [["within:0.3"], ["within:0.2"], ["within:0.1"], ["within:0.05"], ["taau:0"], TARGETS]
-STEPS = 1500
 
 
-# The page's opening line: what the reader can do with it.
-LEAD = "This page records which model size `mnss-kit size` picks for two scenes of different complexity, and why."
+def size_command(study: Study, scene: str, data: Path) -> list[str]:
+    train, test = study.scenes[scene]
+    return [sys.executable, "-m", "mnss_kit", "size", "--data", *[str(data / s) for s in train],
+            *(["--test", *[str(data / t) for t in test]] if test else []), "--ladder", *study.ladder,
+            "--steps", str(study.steps), *[arg for t in study.targets for arg in ("--target", t)], *study.options,
+            "--out", str(REPO / "benchmarks" / "results" / study.results / scene), "--no-progress"]
 
 
-def size_command(scene: str, data: Path) -> list[str]:
-    train, test = SCENES[scene]
-    return [sys.executable, "-m", "mnss_kit", "size", "--data", *[str(data / "train_x2" / s) for s in train],
-            "--test", str(data / "test_x2" / test), "--ladder", *LADDER, "--steps", str(STEPS),
-            *[arg for t in TARGETS for arg in ("--target", t)],
-            "--out", str(RESULTS / scene), "--no-progress"]
-
-
-def ensure_data(data: Path) -> None:
-    for name in ("train_x2", "test_x2"):
+def ensure_data(study: Study, data: Path) -> None:
+    for name in study.renders:
         if not (data / name).is_dir():
             subprocess.run([sys.executable, "-m", "mnss_kit", "render", name, "--out", str(data / name)], check=True)
 
 
-def write_doc() -> None:
+def write_doc(study: Study) -> None:
     from mnss_kit.size.charts import markdown, write_chart
 
-    lines = ["# Sizing a model to its scene", "", LEAD, "",
-             "Generated by `scripts/studies/size_study.py` from `benchmarks/results/size/*/size.json`; do not edit by hand.", "",
+    results, charts = REPO / "benchmarks" / "results" / study.results, REPO / "docs" / "studies" / study.results
+    largest = study.ladder[-1]
+    lines = ["# Sizing a model to its scene", "", study.lead, "",
+             f"Generated by `scripts/studies/size_study.py` from `benchmarks/results/{study.results}/*/size.json`; "
+             "do not edit by hand.", "",
              "`mnss-kit size` trains a ladder of model configs for the same number of steps on a scene's own "
              "sequences, evaluates each on held-out sequences of that scene, and chooses the smallest whose "
-             "quality meets the targets. Here the targets are `within:0.3` (PSNR at most 0.3 dB below the largest "
-             f"rung, `mnss_x2`) and `taau:0` (PSNR not below TAAU's on the same frames), the ladder is {', '.join(f'`{n}`' for n in LADDER)}, {STEPS} steps per rung, "
-             "on two built-in scenes of clearly different complexity.", ""]
+             f"quality meets the targets. Here the targets are {_targets_text(study.targets, largest)}, the ladder is "
+             f"{', '.join(f'`{n}`' for n in study.ladder)}, {study.steps} steps per rung, {study.about}", ""]
     docs = {}
-    for scene, (train, test) in SCENES.items():
-        path = RESULTS / scene / "size.json"
+    for scene in study.scenes:
+        path = results / scene / "size.json"
         if not path.is_file():
             lines += [f"## {scene}", "", f"Not run yet: `{scene}` has no `size.json`.", ""]
             continue
         doc = read_json(path)
         docs[scene] = doc
-        chart = write_chart(doc, CHARTS / f"{scene}.png", title=f"{scene}: ladder on {test} (held out)")
-        lines += [f"## {scene}", "", f"Trained on {', '.join(train)}; judged on {test}.", "",
-                  "Reproduce: `" + " ".join(_portable(size_command(scene, Path("data")))) + "`", "",
-                  markdown(doc), f"![{scene} ladder](size/{chart.name})", ""]
-    if len(docs) == len(SCENES):
-        lines += ["## What the ladder says", "", _verdict(docs), "", *_sweep(docs), ""]
-    atomic_write_text(DOC, "\n".join(lines))
-    print(f"wrote {DOC.relative_to(REPO)}")
+        train, test = [Path(p).name for p in doc["settings"]["train_sequences"]], [Path(p).name for p in doc["settings"]["test_sequences"]]
+        chart = write_chart(doc, charts / f"{scene}.png", title=f"{scene}: ladder on {', '.join(test)} (held out)")
+        lines += [f"## {scene}", "", f"Trained on {', '.join(train)}; judged on {', '.join(test)}.", "",
+                  "Reproduce: `" + " ".join(_portable(size_command(study, scene, Path("data")))) + "`", "",
+                  markdown(doc), f"![{scene} ladder]({study.results}/{chart.name})", ""]
+    if len(docs) == len(study.scenes):
+        lines += ["## What the ladder says", "", _verdict(study, docs), "", *_sweep(study, docs), ""]
+    page = REPO / "docs" / "studies" / study.page
+    atomic_write_text(page, "\n".join(lines))
+    print(f"wrote {page.relative_to(REPO)}")
 
 
-def _verdict(docs: dict[str, dict]) -> str:
+def _targets_text(targets, largest: str) -> str:
+    words = {"within": "PSNR at most {} dB below the largest rung, `" + largest + "`",
+             "taau": "PSNR at least {} dB above TAAU's on the same frames"}
+    return " and ".join(f"`{t}` ({words[t.split(':')[0]].format(t.split(':')[1])})" for t in targets)
+
+
+def _verdict(study: Study, docs: dict[str, dict]) -> str:
     """What the choices say, from the numbers: each scene's choice, or its best rung against TAAU."""
     parts = []
     for scene, doc in docs.items():
@@ -102,23 +141,31 @@ def _verdict(docs: dict[str, dict]) -> str:
     verdict = ("The scenes chose differently." if len(choices) > 1 else "Both scenes chose the same size at these targets.")
     from mnss_kit.size.select import choose, parse_target
 
-    relative = {scene: choose(list(doc["rows"].values()), [parse_target(TARGETS[0])])[0]["config"] for scene, doc in docs.items()}
+    first = study.targets[0]
+    relative = {scene: choose(list(doc["rows"].values()), [parse_target(first)])[0]["config"] for scene, doc in docs.items()}
     alone = "; ".join(f"{scene} `{name}`" for scene, name in relative.items())
-    return (f"Chosen per scene: {'; '.join(parts)}. {verdict} Spread between the smallest and the largest rung: {spread}. "
-            f"`{TARGETS[0]}` alone would choose: {alone}. Where no rung meets `taau:0`, the scene needs more model or "
-            f"more training than this ladder gives at {STEPS} steps.")
+    return (f"Chosen per scene: {'; '.join(parts)}. {verdict} Spread between the weakest and the best rung: {spread}. "
+            f"`{first}` alone would choose: {alone}. Where no rung meets `taau:0`, the scene needs more model or "
+            f"more training than this ladder gives at {study.steps} steps.")
 
 
-def _sweep(docs: dict[str, dict]) -> list[str]:
-    """The choice per scene under each target set of SWEEP, from the same rows (nothing retrained)."""
+def _sweep(study: Study, docs: dict[str, dict]) -> list[str]:
+    """The choice per scene under other targets, from the same rows (nothing retrained)."""
     from mnss_kit.size.select import choose, parse_target
 
+    seeds = max(len(r.get("seeds") or [r]) for doc in docs.values() for r in doc["rows"].values())
+    evidence = ("Each rung was trained once, with one seed: how far another seed would move a rung is not measured, "
+                "so a gap of a tenth of a decibel between rungs is weak evidence." if seeds == 1 else
+                f"Each rung was trained with {seeds} seeds and is judged by their mean; the ladders above give each "
+                "seed's PSNR.")
+    within = [t for t in study.targets if t.startswith("within:")][0]
+    sweep = [[within], *([f"within:{v}"] for v in ("0.2", "0.1", "0.05") if f"within:{v}" != within),
+             ["taau:0"], ["taau:0.25"], list(study.targets)]
     lines = ["### The same rows under other targets", "",
              "`mnss-kit size` applies new targets to the rungs it has already trained; each row below is such a rerun "
-             "(no training). Each rung was trained once, with one seed: how far another seed would move a rung is "
-             "not measured, so a gap of a tenth of a decibel between rungs is weak evidence.", "",
+             f"(no training). {evidence}", "",
              "| targets | " + " | ".join(docs) + " |", "|---|" + "---|" * len(docs)]
-    for targets in SWEEP:
+    for targets in sweep:
         cells = []
         for doc in docs.values():
             chosen, _ = choose(list(doc["rows"].values()), [parse_target(t) for t in targets], baselines=doc["baselines"])
@@ -135,17 +182,22 @@ def _portable(argv: list[str]) -> list[str]:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=Path("data"), help="holds train_x2 and test_x2 (default: %(default)s)")
-    parser.add_argument("--scenes", nargs="+", choices=list(SCENES), default=list(SCENES))
-    parser.add_argument("--doc-only", action="store_true", help="only rewrite docs/studies/size.md from the JSON files")
+    parser.add_argument("--study", choices=list(STUDIES), default="mnss", help="which ladder (default: %(default)s)")
+    parser.add_argument("--data", type=Path, default=Path("data"), help="holds the study's renders (default: %(default)s)")
+    parser.add_argument("--scenes", nargs="+", help="run only these scenes of the study")
+    parser.add_argument("--doc-only", action="store_true", help="only rewrite the study's page from its size.json files")
     args = parser.parse_args()
+    study = STUDIES[args.study]
+    unknown = sorted(set(args.scenes or []) - set(study.scenes))
+    if unknown:
+        parser.error(f"--scenes: the {args.study} study has no scene '{unknown[0]}' ({', '.join(study.scenes)})")
     if not args.doc_only:
-        ensure_data(args.data)
-        for scene in args.scenes:
-            result = subprocess.run(size_command(scene, args.data))
+        ensure_data(study, args.data)
+        for scene in args.scenes or study.scenes:
+            result = subprocess.run(size_command(study, scene, args.data))
             if result.returncode not in (0, 1):  # 1: no rung met the target, still a result to report
                 return result.returncode
-    write_doc()
+    write_doc(study)
     return 0
 
 

@@ -61,6 +61,17 @@ def test_a_cut_branch_fit_continues_from_its_last_checkpoint(capture, tmp_path, 
     assert checkpoint.read_record(out / "detail" / "model.pt")[0]["detail_fit"]["steps"] > 5
 
 
+def test_a_branch_fitted_to_another_model_is_not_taken(capture, tmp_path):
+    """A finished fit in the output directory is reused only for the model it was fitted to."""
+    from mnss_kit.errors import UserError
+    from mnss_kit.model.checkpoint import resolve
+
+    fitted = detail.fit_detail(resolve("ntaau_lr_x2"), capture, tmp_path / "d", 0.01, 4, progress=False)
+    assert detail.fit_detail(resolve("ntaau_lr_x2"), capture, tmp_path / "d", 0.01, 4, progress=False) == fitted
+    with pytest.raises(UserError, match="fitted a branch to another model"):
+        detail.fit_detail(resolve("ntaau_lr_modes"), capture, tmp_path / "d", 0.01, 4, progress=False)
+
+
 def test_detail_refuses_a_model_without_a_branch_in_one_line(capture, tmp_path, capsys):
     assert main(["finetune", str(capture), "--out", str(tmp_path / "o"), "--model", "mnss_x2", "--detail"]) == 2
     err = capsys.readouterr().err.strip().splitlines()

@@ -101,6 +101,9 @@ def test_seeds_train_each_rung_again_and_judge_it_by_the_mean(scene, sized, tmp_
     (["--target", "within:1", "--ladder", "mnss_x2_tiny"], "at least two model configs"),
     (["--target", "within:1", "--ladder", "mnss_x2_tiny", "mnss_x3"], "model config 'mnss_x3': the data is x2 but the model is x3"),
     (["--target", "within:1", "--ladder", "mnss_x2_tiny", "nope"], "unknown model config 'nope'"),
+    (["--target", "within:1", "--ladder", "mnss_x2_tiny", "mnss_x2_small+detail"],
+     "rung 'mnss_x2_small+detail': mnss_x2_small is a mnss model; only ntaau_lr models take a detail branch"),
+    (["--target", "within:1", "--detail-minutes", "0"], "--detail-minutes must be positive"),
 ])
 def test_user_mistakes_are_one_line_errors(scene, tmp_path, capsys, extra, message):
     code = main(["size", "--data", str(scene / "data"), "--out", str(tmp_path / "o"), "--no-progress", *extra])
@@ -113,6 +116,31 @@ def test_held_out_sequences_may_not_be_trained_on(scene, tmp_path, capsys):
     code = main(["size", "--data", str(scene / "data"), "--test", str(scene / "data" / "held"), "--target", "within:1",
                  "--out", str(tmp_path / "o"), "--no-progress"])
     assert code == 2 and "both in --data and in --test" in capsys.readouterr().err
+
+
+def test_a_detail_rung_fits_a_branch_on_its_base_rung_and_is_reused(scene, tmp_path):
+    """CONFIG+detail: CONFIG's rung trained once, then finetune --detail's branch fitted on the
+    training sequences; it counts the branch's MACs, and a rerun reuses both."""
+    from mnss_kit.fileio import sha256_file
+    from mnss_kit.finetune.detail import BRANCH
+
+    out = tmp_path / "size"
+    ladder = ["--ladder", "ntaau_lr_x2_tiny", "ntaau_lr_x2_tiny+detail"]
+    args = ["size", "--data", str(scene / "data"), "--target", "within:100", "--out", str(out), "--detail-minutes", "0.02",
+            *FAST[:FAST.index("--ladder")], *ladder, *FAST[FAST.index("--max-frames"):]]
+    assert main(args) == 0
+    doc = read_json(out / "size.json")
+    plain, detail = doc["rows"]["ntaau_lr_x2_tiny"], doc["rows"]["ntaau_lr_x2_tiny+detail"]
+    record = read_record(out / detail["checkpoint"])[0]
+    assert record["config"]["detail"] and record["config"]["detail_width"] == BRANCH["detail_width"]
+    assert record["detail_fit"]["base_sha256"] == sha256_file(out / plain["checkpoint"]) and record["detail_fit"]["steps"] > 0
+    assert detail["macs_per_pixel"] > plain["macs_per_pixel"] and detail["steps"] == plain["steps"] == 3
+    assert doc["choice"]["config"] == "ntaau_lr_x2_tiny"
+    gain = detail["psnr"] - plain["psnr"]
+    assert f"its gain over CONFIG, seed by seed: ntaau_lr_x2_tiny+detail {gain:+.2f} dB" in (out / "size.md").read_text()
+    stamps = {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/model.pt")}
+    assert len(stamps) == 2 and main(args) == 0
+    assert {p: p.stat().st_mtime_ns for p in stamps} == stamps
 
 
 # -- --scale ----------------------------------------------------------------------------------------
