@@ -58,12 +58,13 @@ STUDIES = {
         page="size_ntaau_lr.md", results="size_ntaau_lr", renders=("train_engine_x2",),
         scenes={"rooms": ([f"train_engine_x2/rooms_e{i}" for i in (1, 7, 8, 10)], None),
                 "plaza": ([f"train_engine_x2/plaza_e{i}" for i in (21, 22, 23)], None)},
-        ladder=("ntaau_lr_x2_small", "ntaau_lr_x2_small+detail", "ntaau_lr_x2", "ntaau_lr_x2+detail", "ntaau_lr_x2_large"),
+        ladder=("ntaau_lr_x2_tiny", "ntaau_lr_x2_tiny+detail", "ntaau_lr_x2_small", "ntaau_lr_x2_small+detail",
+                "ntaau_lr_x2", "ntaau_lr_x2+detail", "ntaau_lr_x2_large"),
         targets=("within:0.25", "taau:0"), steps=2000,
         options=("--held-out", "1", "--minutes", "28", "--max-frames", "24", "--set", "train.threads=1", "--seeds", "2"),
         lead="This page records which rung of the ntaau_lr ladder `mnss-kit size` picks for two scenes, and why: "
              "where the scene needs the detail branch a steering net alone cannot give.",
-        about="with two `CONFIG+detail` rungs (CONFIG's trained steering plus the detail branch of "
+        about="with three `CONFIG+detail` rungs (CONFIG's trained steering plus the detail branch of "
               "`mnss-kit finetune --detail`, fitted on the scene's training sequences), each rung trained with two seeds "
               "and judged by their mean, on the furnished rooms and the open plaza of `train_engine_x2` (no jitter), "
               "each scene's last sequence held out."),
@@ -160,16 +161,24 @@ def _sweep(study: Study, docs: dict[str, dict]) -> list[str]:
                 "seed's PSNR.")
     within = [t for t in study.targets if t.startswith("within:")][0]
     sweep = [[within], *([f"within:{v}"] for v in ("0.2", "0.1", "0.05") if f"within:{v}" != within),
-             ["taau:0"], ["taau:0.25"], list(study.targets)]
+             ["taau:0"], ["taau:0.25"], list(study.targets), [within, "taau:0.25"]]
+    columns = {scene: [list(doc["rows"].values())] for scene, doc in docs.items()}
+    if seeds > 1:  # each seed's runs alone as well: does the choice hold seed by seed?
+        evidence += " The columns per seed choose from that seed's runs alone."
+        for scene, doc in docs.items():
+            columns[scene] += [[{**r, **r["seeds"][k]} for r in doc["rows"].values()] for k in range(seeds)]
+    heads = [scene if k == 0 else f"{scene}, seed {rows[0]['seed']}" for scene, sets in columns.items()
+             for k, rows in enumerate(sets)]
     lines = ["### The same rows under other targets", "",
              "`mnss-kit size` applies new targets to the rungs it has already trained; each row below is such a rerun "
              f"(no training). {evidence}", "",
-             "| targets | " + " | ".join(docs) + " |", "|---|" + "---|" * len(docs)]
+             "| targets | " + " | ".join(heads) + " |", "|---|" + "---|" * len(heads)]
     for targets in sweep:
         cells = []
-        for doc in docs.values():
-            chosen, _ = choose(list(doc["rows"].values()), [parse_target(t) for t in targets], baselines=doc["baselines"])
-            cells.append(f"`{chosen['config']}`" if chosen else "none")
+        for scene, sets in columns.items():
+            for rows in sets:
+                chosen, _ = choose(rows, [parse_target(t) for t in targets], baselines=docs[scene]["baselines"])
+                cells.append(f"`{chosen['config']}`" if chosen else "none")
         lines.append(f"| {' '.join(f'`{t}`' for t in targets)} | " + " | ".join(cells) + " |")
     return lines
 
