@@ -3,8 +3,12 @@ bundle's golden frames and int8 graph against the emulator and the runtimes."""
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import torch
+
+from mnss_kit.ops import taau_lr
 
 
 def hwc(x: torch.Tensor) -> np.ndarray:
@@ -14,6 +18,31 @@ def hwc(x: torch.Tensor) -> np.ndarray:
 
 def assert_close(got: torch.Tensor, want: np.ndarray, atol: float) -> None:
     np.testing.assert_allclose(hwc(got), want, atol=atol, rtol=0)
+
+
+class Gathered(NamedTuple):
+    inputs: object  # the gathered LR inputs (Gather's): history, history_weight, samples, ...
+    trust_lr: torch.Tensor
+    features: torch.Tensor  # the NPU input torch made
+    want: np.ndarray  # the NPU input ops.taau_lr.steering_features makes of the same history
+    change: np.ndarray  # the reference's depth change
+    spread: np.ndarray  # the reference's motion spread
+
+
+def gather_against_reference(model, first: dict, frame: dict) -> Gathered:
+    """``model``'s Gather on ``frame`` after ``first`` (so with a reprojected history), and the numpy
+    reference of its NPU input for the model's scale, scale input and detail branch."""
+    with torch.no_grad():
+        _, _, state = model(first)
+        state = {k: v for k, v in state.items() if k != "depth"}
+        inputs, trust_lr, features = model.lr_gather(frame["color"], frame["depth"], first["depth"], frame["jitter"],
+                                                     frame["motion"], torch.zeros(1), state)
+    change = taau_lr.depth_change(hwc(frame["depth"]), hwc(first["depth"]), hwc(frame["motion"]))
+    spread = taau_lr.motion_spread(hwc(frame["motion"]))
+    c = model.config
+    want = taau_lr.steering_features(hwc(frame["color"]), hwc(inputs.history), hwc(inputs.history_weight), change, spread,
+                                     c.scale, model.params.max_weight, c.scale_input, detail=c.detail)
+    return Gathered(inputs, trust_lr, features, want, change, spread)
 
 
 def assert_golden_frames(bundle_dir, gpu_backend: str, frames: int) -> None:

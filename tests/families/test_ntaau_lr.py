@@ -19,7 +19,7 @@ from mnss_kit.model.ntaau_lr import net
 from mnss_kit.model.ntaau_lr.config import NTAAULRConfig
 from mnss_kit.ops import taau as ops_taau
 from mnss_kit.ops import taau_lr
-from ntaau_lr_checks import assert_close, assert_golden_frames, hwc, npu_differences
+from ntaau_lr_checks import assert_close, assert_golden_frames, gather_against_reference, hwc, npu_differences
 from random_ntaau_lr import random_ntaau_lr
 
 
@@ -75,20 +75,11 @@ def test_the_gather_matches_the_numpy_reference(size):
     """The 8 features, padded to an even size, and the trust map of ``Gather`` against ``ops.taau_lr``
     on a frame with a reprojected history."""
     model = build_model(NTAAULRConfig())
-    first, frame = _frames(2, *size)
-    with torch.no_grad():
-        _, _, state = model(first)
-        state = {k: v for k, v in state.items() if k != "depth"}
-        inputs, trust_lr, features = model.lr_gather(frame["color"], frame["depth"], first["depth"], frame["jitter"],
-                                                     frame["motion"], torch.zeros(1), state)
-    change = taau_lr.depth_change(hwc(frame["depth"]), hwc(first["depth"]), hwc(frame["motion"]))
-    spread = taau_lr.motion_spread(hwc(frame["motion"]))
-    want = taau_lr.steering_features(hwc(frame["color"]), hwc(inputs.history), hwc(inputs.history_weight), change, spread,
-                                     2, model.params.max_weight)
-    assert want.shape == (size[0] + size[0] % 2, size[1] + size[1] % 2, 8)
-    _close(features, want)
+    g = gather_against_reference(model, *_frames(2, *size))
+    assert g.want.shape == (size[0] + size[0] % 2, size[1] + size[1] % 2, 8)
+    _close(g.features, g.want)
     c = model.config
-    _close(trust_lr, taau_lr.trust(change, spread, c.trust_depth, c.trust_spread_px))
+    _close(g.trust_lr, taau_lr.trust(g.change, g.spread, c.trust_depth, c.trust_spread_px))
 
 
 @pytest.mark.parametrize("scale", [2, 3])

@@ -18,7 +18,7 @@ from mnss_kit.model.ntaau_lr.gpu_plan import bundle_gpu_plan, resources, schedul
 from mnss_kit.model.ntaau_lr.net import detail_luma
 from mnss_kit.ops import taau_lr
 from mnss_kit.quantize.trace import trace
-from ntaau_lr_checks import assert_close, hwc
+from ntaau_lr_checks import assert_close, gather_against_reference, hwc
 from test_ntaau_lr import ATOL, _frames
 
 
@@ -51,19 +51,10 @@ def test_the_detail_inputs_are_their_numpy_reference(scale, size, scale_input):
     """Gather's s x s channels of the clamped history's luma (``pixel_unshuffle`` order, after the
     scale input), padded to an even size, against ``ops.taau_lr.steering_features(detail=True)``."""
     model = build_model(NTAAULRConfig(scale=scale, detail=True, scale_input=scale_input))
-    first, frame = _frames(2, *size, scale)
-    with torch.no_grad():
-        _, _, state = model(first)
-        state = {k: v for k, v in state.items() if k != "depth"}
-        inputs, _, features = model.lr_gather(frame["color"], frame["depth"], first["depth"], frame["jitter"],
-                                              frame["motion"], torch.zeros(1), state)
-    change = taau_lr.depth_change(hwc(frame["depth"]), hwc(first["depth"]), hwc(frame["motion"]))
-    spread = taau_lr.motion_spread(hwc(frame["motion"]))
-    want = taau_lr.steering_features(hwc(frame["color"]), hwc(inputs.history), hwc(inputs.history_weight), change, spread,
-                                     scale, model.params.max_weight, scale_input, detail=True)
-    assert want.shape == (size[0] + size[0] % 2, size[1] + size[1] % 2, model.config.npu_input_channels())
-    assert np.unique(want[..., -scale * scale:]).size > 50
-    assert_close(features, want, ATOL)
+    g = gather_against_reference(model, *_frames(2, *size, scale))
+    assert g.want.shape == (size[0] + size[0] % 2, size[1] + size[1] % 2, model.config.npu_input_channels())
+    assert np.unique(g.want[..., -scale * scale:]).size > 50
+    assert_close(g.features, g.want, ATOL)
 
 
 def test_the_exported_net_has_no_slice_and_is_the_net():

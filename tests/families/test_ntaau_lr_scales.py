@@ -19,7 +19,7 @@ from mnss_kit.model.ntaau_lr import net
 from mnss_kit.model.ntaau_lr.config import NTAAULRConfig
 from mnss_kit.ops import taau as ops_taau
 from mnss_kit.ops import taau_lr
-from ntaau_lr_checks import assert_close, assert_golden_frames, hwc, npu_differences
+from ntaau_lr_checks import assert_close, assert_golden_frames, gather_against_reference, hwc, npu_differences
 from mnss_kit.ops.scale import INTEGER_SCALE_ONLY, lr_size_for
 
 
@@ -89,21 +89,12 @@ def test_the_gather_and_the_steering_match_the_numpy_reference(scale, lr):
     config = NTAAULRConfig(scale=scale, box_bound=1.5, filter_bound=0.2)
     model = build_model(config)
     g = torch.Generator().manual_seed(2)
-    first, frame = (example_frame(FAMILIES["ntaau_lr"], *lr, 2, generator=g) for _ in range(2))
-    with torch.no_grad():
-        _, _, state = model(first)
-        state = {k: v for k, v in state.items() if k != "depth"}
-        inputs, trust_lr, features = model.lr_gather(frame["color"], frame["depth"], first["depth"], frame["jitter"],
-                                                     frame["motion"], torch.zeros(1), state)
-    change = taau_lr.depth_change(hwc(frame["depth"]), hwc(first["depth"]), hwc(frame["motion"]))
-    spread = taau_lr.motion_spread(hwc(frame["motion"]))
-    want = taau_lr.steering_features(hwc(frame["color"]), hwc(inputs.history), hwc(inputs.history_weight), change, spread,
-                                     scale, model.params.max_weight)
-    _close(features, want)
+    gathered = gather_against_reference(model, *(example_frame(FAMILIES["ntaau_lr"], *lr, 2, generator=g) for _ in range(2)))
+    _close(gathered.features, gathered.want)
     raw = 3.0 * torch.randn(1, 6, *lr, generator=g)
-    hr_size = (inputs.samples.shape[-1], inputs.samples.shape[-2])
-    steer = net.steer_from_lr(raw, trust_lr, config, hr_size)
-    want_steer = taau_lr.steer_from_lr(hwc(raw), hwc(trust_lr), scale, config.box_bound, config.filter_bound, hr_size)
+    hr_size = (gathered.inputs.samples.shape[-1], gathered.inputs.samples.shape[-2])
+    steer = net.steer_from_lr(raw, gathered.trust_lr, config, hr_size)
+    want_steer = taau_lr.steer_from_lr(hwc(raw), hwc(gathered.trust_lr), scale, config.box_bound, config.filter_bound, hr_size)
     for name in ("history_gain", "sample_gain", "box_widen", "fallback", "filter_axis", "filter_diagonal"):
         _close(getattr(steer, name), getattr(want_steer, name))
 
