@@ -47,6 +47,12 @@ def check_detail(record: dict, model: str, what: str = "--detail") -> None:
         raise UserError(f"{what}: {model} is x{record.get('scale')}; the detail branch takes integer scales only")
 
 
+def branch_config(config: dict, settings: dict | None = None, source: str = "model config"):
+    """The model config ``config`` (a dict) with a detail branch, of ``settings`` (``detail_width``,
+    ``detail_bound``) where given, else the config's own."""
+    return model_config_from_dict({**config, "detail": True, **(settings or {})}, source=source)
+
+
 def with_empty_branch(path: Path, settings: dict | None = None) -> tuple[torch.nn.Module, dict]:
     """``(model, record)``: the checkpoint at ``path`` plus a detail branch that draws nothing (the
     branch's own initial weights, last conv zero), so the model starts as the checkpoint;
@@ -54,7 +60,7 @@ def with_empty_branch(path: Path, settings: dict | None = None) -> tuple[torch.n
     from ..train.init import initial_weights
 
     record, _ = checkpoint.read_record(path)
-    config = model_config_from_dict({**record["config"], "detail": True, **(settings or {})}, source=f"{path} record")
+    config = branch_config(record["config"], settings, source=f"{path} record")
     torch.manual_seed(0)
     model = build_model(config)
     weights, _ = initial_weights(config, str(path))
@@ -78,7 +84,7 @@ def record_frames(model, tune_dir: Path | list[Path], warmup: int, progress: boo
                           max(m.lr_size[0] * m.lr_size[1] for m in metas), int(model.scale))
     inputs, displays, references = [], [], []
     bar = tqdm(total=sum(len(m.frames) for m in metas), unit="frame", desc="record", disable=None if progress else True)
-    with model.recording_detail_inputs() as branch_inputs:
+    with model.recording_detail_inputs() as branch_inputs, bar:
         for seq, meta in zip(seqs, metas):
             method, state = model_method(model), None
             for frame in iter_frames(seq, meta):
@@ -91,7 +97,6 @@ def record_frames(model, tune_dir: Path | list[Path], warmup: int, progress: boo
                     references.append(torch.from_numpy(np.ascontiguousarray(frame.reference)).permute(2, 0, 1).half())
                 branch_inputs.clear()
                 bar.update(1)
-    bar.close()
     if not inputs:
         raise UserError(f"--detail: no tuned frame after the {warmup}-frame warm-up to fit the branch on")
     return inputs, displays, references

@@ -162,14 +162,14 @@ def base_config(name: str) -> str:
 def _detail_rung_macs(name: str, scale: int | float) -> float:
     """MACs per pixel of rung ``CONFIG+detail`` (refused in one line when CONFIG cannot take the branch)."""
     from ..config import to_dict
-    from ..finetune.detail import BRANCH, check_detail
-    from ..model.config import load_model_config, model_config_from_dict
+    from ..finetune.detail import BRANCH, branch_config, check_detail
+    from ..model.config import load_model_config
     from ..model.families import build_model
     from ..model.macs import count_macs
 
     config = load_model_config(base_config(name))
     check_detail({"family": config.family, "scale": scale}, base_config(name), what=f"rung '{name}'")
-    return count_macs(build_model(model_config_from_dict({**to_dict(config), "detail": True, **BRANCH}))).total
+    return count_macs(build_model(branch_config(to_dict(config), BRANCH, source=f"rung '{name}'"))).total
 
 
 def default_ladder(rows: dict[str, dict], scale: int | float) -> list[str]:
