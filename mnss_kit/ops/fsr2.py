@@ -27,8 +27,8 @@ previous frame; ``ops.conventions``), state the HR history and the HR lock statu
    luma differs from the locked luma by more than ``lock_luma_tolerance``.
 4. Accumulate (``accumulate``; GPU ``fsr2_accumulate_pass``).  This frame's samples reach each HR
    pixel through the main lobe of a Lanczos-2 kernel on their distance in HR pixels (scaled by
-   ``kernel_width``), whose total is their weight in the blend: a sample landing on the pixel
-   centre counts fully.  The history, fetched by Catmull-Rom at the position the dilated motion
+   the kernel's width, FSR 2's footprint unless ``kernel_width`` is set), whose total is their
+   weight in the blend: a sample landing on the pixel centre counts fully.  The history, fetched by Catmull-Rom at the position the dilated motion
    (bilinearly upsampled) gives, is clamped in YCoCg to the mean +- ``gamma`` std of the 3x3 LR
    samples around the nearest one (less where a lock holds); its weight (fetched bilinearly) is
    cut by the fetch's blur (``resample_penalty``), the depth clip and the optional reactive mask.
@@ -58,6 +58,7 @@ NO_DEPTH = np.float32(1.0)  # reconstructed previous depth where no surface land
 RCAS_LOBE_LIMIT = np.float32(0.1875)  # the strongest lobe: taps -0.75 around a centre of 4 (they sum to 1)
 PRIOR_FADE = np.float32(3.0)  # the prior's weight falls by e^-3 per unit of history weight
 LUMA = np.array([0.25, 0.5, 0.25], np.float32)  # YCoCg's Y
+KERNEL_BIAS_MAX = 1.99  # FSR 2's cap on the factor that maps LR offsets onto its kernel
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,7 @@ class FSR2Params:
     max_weight: float = 12.0  # history weight cap: about that many frames of full samples
     gamma: float = 3.0  # clamp box half-width in standard deviations of the 3x3 samples
     resample_penalty: float = 1.0  # history weight lost per unit of the fetch's blur (sum over axes of t (1 - t))
-    kernel_width: float = 0.6  # HR pixels from a sample to its kernel's first zero
+    kernel_width: float | None = None  # HR pixels from a sample to its kernel's first zero; None: FSR2's (kernel_width_at)
     prior_weight: float = 0.1  # weight of the Lanczos-upsampled frame where the history is empty (PRIOR_FADE)
     dilation_edge: float = 0.05  # a neighbour this much nearer (relative) is across an edge: dilate to it
     depth_tolerance: float = 0.02  # relative depth separation that starts a depth clip
@@ -82,6 +83,16 @@ class FSR2Params:
             raise ValueError(f"sharpness must be in [0, 1], got {self.sharpness}")
         if self.max_weight <= 0 or self.lock_frames < 1:
             raise ValueError("max_weight must be positive and lock_frames at least 1")
+        if self.kernel_width is not None and self.kernel_width <= 0:
+            raise ValueError(f"kernel_width must be positive, got {self.kernel_width}")
+
+    def kernel_width_at(self, scale: int) -> float:
+        """The kernel's first zero in HR pixels at ``scale``.  FSR 2 evaluates Lanczos-2 on a
+        sample's LR offset times ``min(1.99, scale)``, so its first zero lies ``scale / min(1.99,
+        scale)`` HR pixels away: about one HR pixel at x2, a footprint of two output pixels across."""
+        if self.kernel_width is not None:
+            return float(self.kernel_width)
+        return float(np.float32(scale) / np.float32(min(KERNEL_BIAS_MAX, scale)))
 
 
 @dataclass
@@ -358,7 +369,7 @@ def accumulate(colour: np.ndarray, dilated_motion: np.ndarray, analysis: np.ndar
     output RGB in [0, 1] and its weight) and the next locks."""
     h, w = colour.shape[:2]
     current = rgb_to_ycocg(colour)
-    samples, sample_weight = reconstruct_samples(current, jitter, scale, params.kernel_width)
+    samples, sample_weight = reconstruct_samples(current, jitter, scale, params.kernel_width_at(scale))
     upsampled = lanczos_upsample(current, jitter, scale)
     rows, cols = nearest_sample_index(h, w, jitter, scale)
     lo, hi = variance_box(current, rows, cols, params.gamma)

@@ -166,7 +166,7 @@ class NamedPasses:
     def fsr2_accumulate(self, color, dilated, analysis, history, locks, reactive, previous_depth, jitter, scale, reset, params):
         read = {"color": color, "dilated": dilated, "analysis": analysis, "history": history, "locks": locks, "reactive": reactive,
                 "previous_depth": previous_depth}
-        uniforms = {**fsr2_uniforms(params), "u_scale": scale, "u_reset": int(reset), "u_use_reactive": int(reactive is not None)}
+        uniforms = {**fsr2_uniforms(params, scale), "u_scale": scale, "u_reset": int(reset), "u_use_reactive": int(reactive is not None)}
         out = self._run("fsr2_accumulate_pass", read, uniforms, jitter, None, scale)
         return out["next_history"], out["next_locks"], out["previous_depth"]
 

@@ -13,9 +13,11 @@ FIELDS = {"u_dilation_edge": "dilation_edge", "u_depth_tolerance": "depth_tolera
           "u_lock_luma_tolerance": "lock_luma_tolerance", "u_sharpness": "sharpness"}
 
 
-def fsr2_uniforms(params: FSR2Params) -> dict:
-    """The float uniforms of the fsr2 passes for ``params`` (float32 values, as the shaders hold them)."""
-    values = {u: float(np.float32(getattr(params, field))) for u, field in FIELDS.items()}
+def fsr2_uniforms(params: FSR2Params, scale: int = 2) -> dict:
+    """The float uniforms of the fsr2 passes for ``params`` at ``scale`` (float32 values, as the
+    shaders hold them; the kernel's width follows the scale unless ``params`` sets it)."""
+    values = {u: float(np.float32(getattr(params, field))) for u, field in FIELDS.items() if field != "kernel_width"}
+    values["u_kernel_width"] = float(np.float32(params.kernel_width_at(scale)))
     values["u_lock_decay"] = float(np.float32(np.float32(1.0 / params.lock_frames)))
     return values
 
