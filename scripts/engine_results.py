@@ -78,7 +78,9 @@ def frames_below_taau(rows: list[dict], methods: list[str]) -> dict[str, list[in
 
 
 def read_results(models: list[str], digests: list[str]) -> dict:
-    return heldout_results.read_results(models, digests, RESULTS, FRAMES)
+    from mnss_kit.eval.baselines import baseline_settings
+
+    return heldout_results.read_results(models, digests, RESULTS, FRAMES, baseline_settings())
 
 
 def results_lock():

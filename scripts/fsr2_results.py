@@ -52,8 +52,12 @@ def evaluate_variant(config: str, variant: str) -> dict:
 
 
 def read_results() -> dict:
+    """The results so far (empty when written for other frames or other baseline settings)."""
+    from mnss_kit.eval.baselines import baseline_settings
+
     doc = read_json(RESULTS) if RESULTS.is_file() else {}
-    return doc if doc.get("frames") == FRAMES else {"frames": FRAMES, "sets": {}}
+    fresh = {"frames": FRAMES, "baselines": baseline_settings(), "sets": {}}
+    return doc if all(doc.get(k) == fresh[k] for k in ("frames", "baselines")) else fresh
 
 
 def run() -> dict:

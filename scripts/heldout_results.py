@@ -103,14 +103,16 @@ def checkpoint_digests(models: list[str]) -> list[str]:
     return [digest(m) for m in models]
 
 
-def read_results(models: list[str], digests: list[str], path: Path | None = None, frames: int = FRAMES) -> dict:
+def read_results(models: list[str], digests: list[str], path: Path | None = None, frames: int = FRAMES,
+                 baselines: dict | None = None) -> dict:
     """The results in ``path`` (default RESULTS) so far for ``models`` (empty when the file holds other
-    checkpoints or frames)."""
+    checkpoints or frames, or baselines run with other ``baselines`` settings when given)."""
     path = path or RESULTS
     doc = load_results(path) if path.is_file() else {}
-    if doc.get("models") != models or doc.get("digests") != digests or doc.get("frames") != frames:
-        doc = {"models": models, "labels": [model_label(m) for m in models], "digests": digests, "frames": frames, "sets": {}}
-    return doc
+    fresh = {"models": models, "labels": [model_label(m) for m in models], "digests": digests, "frames": frames,
+             **({} if baselines is None else {"baselines": baselines}), "sets": {}}
+    keys = ("models", "digests", "frames") + (() if baselines is None else ("baselines",))
+    return doc if all(doc.get(k) == fresh[k] for k in keys) else fresh
 
 
 def load_results(path: Path) -> dict:

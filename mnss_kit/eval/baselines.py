@@ -20,6 +20,8 @@ baselines at such a scale are the ones that take it.
 
 from __future__ import annotations
 
+import dataclasses
+
 import torch
 import torch.nn.functional as F
 
@@ -144,6 +146,12 @@ def _hwc(x: torch.Tensor):
 BASELINES = {"bicubic": Bicubic, "taau": TAAU, "fsr2": FSR2}
 FRACTIONAL_BASELINES = ("bicubic", "taau")  # the baselines that take a fractional scale (1.5x, 1.7x) so far
 DEFAULT_BASELINES = ("bicubic", "taau")
+
+
+def baseline_settings() -> dict:
+    """The default settings of the baselines with knobs (``fsr2``): a results file written under other
+    settings is stale."""
+    return {"fsr2": dataclasses.asdict(FSR2Params())}
 
 
 def baseline_methods(scale: int | float, names=None) -> dict:
