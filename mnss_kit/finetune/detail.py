@@ -171,11 +171,13 @@ def _batch(inputs, displays, references, crop_h: int, crop_w: int, s: int):
 
 
 def fit_detail(tuned: Path, tune_dir: Path | list[Path], out_dir: Path, minutes: float, warmup: int,
-               progress: bool = True) -> Path:
+               progress: bool = True, threads: int = 0) -> Path:
     """``out_dir/model.pt``: the model at ``tuned`` with a detail branch fitted on ``tune_dir`` for
-    ``minutes`` (recording included); kept when done, resumed from ``last.pt`` when cut.  A fit of
-    another model in ``out_dir`` is refused in one line."""
+    ``minutes`` (recording included) on ``threads`` torch threads (``train.threads``: 0 is a share
+    of the idle cores); kept when done, resumed from ``last.pt`` when cut.  A fit of another model
+    in ``out_dir`` is refused in one line."""
     from ..fileio import sha256_file
+    from ..train.distributed import World, cpu_threads
     from ..train.state import FINAL, LAST
 
     final, last, base = out_dir / FINAL, out_dir / LAST, sha256_file(tuned)
@@ -185,6 +187,7 @@ def fit_detail(tuned: Path, tune_dir: Path | list[Path], out_dir: Path, minutes:
     if final.is_file():
         log.info("detail branch already fitted: %s", final)
         return final
+    torch.set_num_threads(cpu_threads(World(), threads))
     start = time.monotonic()
     model, record = with_empty_branch(tuned, BRANCH)
     record = {**record, "detail_fit": {"base_sha256": base, "minutes": minutes}}  # in last.pt too: what it resumes

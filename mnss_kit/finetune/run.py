@@ -78,7 +78,8 @@ def finetune(capture: Path, out: Path, model: str, minutes: float = DEFAULT_MINU
     write_split(seqs, splits, out / "split" / "tune", out / "split" / "judged")
     tuned = _train(experiment, out / "run", model, progress)
     if detail:
-        tuned = fit_detail(tuned, out / "split" / "tune", out / "detail", minutes * DETAIL_SHARE, warmup, progress)
+        tuned = fit_detail(tuned, out / "split" / "tune", out / "detail", minutes * DETAIL_SHARE, warmup, progress,
+                           experiment.train.threads)
     summary = _judge(model, tuned, out, splits, progress)
     summary["settings"] = {"capture": portable_path(capture), "model": model, "minutes": minutes, "hold_back": hold_back,
                            "warmup": warmup, "recipe": RECIPE, "detail": detail,

@@ -215,7 +215,7 @@ def train_rung(name: str, train_seqs: list[Path], scale: int | float, request: S
     run_dir = request.out / "runs" / (name if seed_run == 0 else f"{name}_seed{experiment.train.seed}")
     if name != base_config(name):
         return _fit_detail_rung(train_rung(base_config(name), train_seqs, scale, request, seed_run), train_seqs,
-                                run_dir, request)
+                                run_dir, request, experiment.train.threads)
     final, last = run_dir / FINAL, run_dir / LAST
     if final.is_file():
         record, _ = read_record(final)
@@ -230,12 +230,13 @@ def train_rung(name: str, train_seqs: list[Path], scale: int | float, request: S
     return train(experiment, run_dir, resume=resume, progress=request.progress)
 
 
-def _fit_detail_rung(base: Path, train_seqs: list[Path], run_dir: Path, request: SizeRequest) -> Path:
-    """``run_dir/model.pt``: the rung at ``base`` with ``finetune --detail``'s branch fitted on ``train_seqs``."""
+def _fit_detail_rung(base: Path, train_seqs: list[Path], run_dir: Path, request: SizeRequest, threads: int) -> Path:
+    """``run_dir/model.pt``: the rung at ``base`` with ``finetune --detail``'s branch fitted on ``train_seqs``
+    on ``threads`` torch threads (the rungs' ``train.threads``)."""
     from ..finetune.detail import fit_detail
     from ..finetune.run import DEFAULT_WARMUP
 
-    return fit_detail(base, train_seqs, run_dir, request.detail_minutes, DEFAULT_WARMUP, request.progress)
+    return fit_detail(base, train_seqs, run_dir, request.detail_minutes, DEFAULT_WARMUP, request.progress, threads)
 
 
 def _finished(record: dict) -> bool:

@@ -38,6 +38,9 @@ def initial_weights(config, name_or_path: str) -> tuple[dict, dict]:
     _check_tensors(model.state_dict(), weights, name_or_path)
     saved = to_dict(model_config_from_dict(record["config"]))  # keys added since the record read as defaults
     differing = sorted(k for k, v in to_dict(config).items() if saved.get(k) != v)
+    if _adds_branch(model, source):  # the branch's own settings are new, not changed
+        log.info("--init %s: a detail branch is added, drawing nothing until it is trained", name_or_path)
+        differing = [k for k in differing if not k.startswith("detail")]
     if differing:
         log.info("--init %s: model.%s differ from the checkpoint's (the config's are used)",
                  name_or_path, ", model.".join(differing))
@@ -65,9 +68,14 @@ def _with_added_inputs(ours: dict, theirs: dict, added: int) -> dict:
     return widened
 
 
+def _adds_branch(model: nn.Module, source: nn.Module) -> bool:
+    """Whether the config's model has ntaau_lr's detail branch and the checkpoint none."""
+    return getattr(model.config, "detail", False) and not getattr(source.config, "detail", False)
+
+
 def _with_added_branch(theirs: dict, model: nn.Module, source: nn.Module) -> dict:
     """``theirs`` plus the tensors of ntaau_lr's detail branch from ``model`` when the checkpoint has none."""
-    if not getattr(model.config, "detail", False) or getattr(source.config, "detail", False):
+    if not _adds_branch(model, source):
         return theirs
     branch = model.detail_parameters()
     return {**theirs, **{k: v for k, v in model.state_dict().items() if k in branch}}

@@ -89,13 +89,15 @@ def test_a_scale_input_model_starts_as_the_checkpoint_without_it():
         assert modes.steer.encode[0].weight[:, 8].abs().sum() == 0
 
 
-def test_a_detail_model_starts_as_the_checkpoint_without_it():
+def test_a_detail_model_starts_as_the_checkpoint_without_it(caplog):
     """ntaau_lr's detail branch, absent from the checkpoint, starts with its last conv at zero: the
-    model's frames equal the checkpoint's."""
+    model's frames equal the checkpoint's.  The log says a branch is added, not that settings differ."""
     from mnss_kit.model.families import FAMILIES
     from mnss_kit.model.family import example_frame
 
-    model, _, shipped = started_from("ntaau_lr_x2", detail=True)
+    with caplog.at_level("INFO", logger="mnss_kit.train.init"):
+        model, _, shipped = started_from("ntaau_lr_x2", detail=True, detail_width=8)
+    assert "a detail branch is added" in caplog.text and "differ" not in caplog.text, caplog.text
     g = torch.Generator().manual_seed(4)
     state = ref_state = None
     with torch.no_grad():
