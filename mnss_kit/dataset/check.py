@@ -346,8 +346,16 @@ class SequenceChecker:
                 where,
                 f"motion of {over.mean():.0%} of pixels exceeds half the image (max {biggest:.1f} px): check meta motion.units and motion.scale",
             )
-        else:
-            self.report.warn(where, f"{int(over.sum())} pixel(s) move more than half the image in one frame (max {biggest:.1f} px)")
+            return
+        # A pixel whose previous position is off the previous frame came into view (a fast turn, or a
+        # surface behind the previous camera, which the motion convention points off-screen): its
+        # history is none, however far the motion points.  A long motion that lands inside is suspect.
+        ys, xs = np.nonzero(over)
+        px, py = xs + 0.5 + mv[ys, xs, 0], ys + 0.5 + mv[ys, xs, 1]
+        inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
+        if inside.any():
+            self.report.warn(where, f"{int(inside.sum())} pixel(s) move more than half the image in one frame to a place "
+                                    f"inside the previous one (max {biggest:.1f} px)")
 
     # -- sign heuristics (full check only) ----------------------------------------------------------
 

@@ -133,6 +133,29 @@ def test_motion_in_wrong_units_is_an_error(capsys, dataset):
     assert any(re.match(r"error: pan/lr/motion/00001\.exr: motion of 100% of pixels exceeds half the image", line) for line in out)
 
 
+def test_only_long_motion_that_lands_inside_the_previous_frame_warns(capsys, dataset):
+    """A pixel whose motion points off the previous frame came into view (a fast turn; the motion
+    convention for a surface behind the previous camera): no warning however long it is.  Motion
+    over half the image that lands inside the previous frame is suspect and warns."""
+    from mnss_kit.dataset.check import canonical_motion
+    from mnss_kit.dataset.format import read_meta
+
+    seq = dataset / "pan"
+    raw = read_raw_buffer(seq, "lr", "motion", 1)
+    w, h = read_meta(seq).lr_size
+    unit = canonical_motion(np.ones_like(raw), read_meta(seq), (w, h))[0, 0]  # canonical pixels per raw unit, per axis
+    raw[:, :2, 0] = -10.0 * w / unit[0]  # the left columns came from far off the left edge
+    write_buffer(seq, "lr", "motion", 1, raw)
+    code, out = run(capsys, "check", seq)
+    assert code == 0 and not any("half the image" in line for line in out), out
+    raw[:2, :2, 0] = 0.75 * w / unit[0]  # four pixels from three quarters of the image to the right: inside
+    write_buffer(seq, "lr", "motion", 1, raw)
+    code, out = run(capsys, "check", seq)
+    assert code == 0
+    assert any(re.match(r"warning: pan/lr/motion/00001\.exr: 4 pixel\(s\) move more than half the image .* inside", line)
+               for line in out), out
+
+
 @pytest.mark.parametrize(
     "change, expected",
     [
