@@ -222,7 +222,7 @@ def _cell(value, spec: str) -> str:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--models", nargs="+", default=[DEFAULT_MODEL, "ntaau_x2_fast", "mnss_x2"],
+    parser.add_argument("--models", nargs="+", default=[DEFAULT_MODEL, "ntaau_x2", "ntaau_x2_fast", "mnss_x2"],
                         help="checkpoints or shipped names; the first is the default judged in the summary")
     parser.add_argument("--sets", nargs="+", choices=[*SETS, "stress"], default=[*SETS, "stress"],
                         help="the held-out sets and the stress scenarios (processes running different parts share the results)")
