@@ -340,11 +340,11 @@ class SequenceChecker:
         over = (np.abs(mv[..., 0]) > w / 2) | (np.abs(mv[..., 1]) > h / 2)
         if not over.any():
             return
-        biggest = float(np.abs(mv).max())
         if over.mean() > 0.5:
             self.report.error(
                 where,
-                f"motion of {over.mean():.0%} of pixels exceeds half the image (max {biggest:.1f} px): check meta motion.units and motion.scale",
+                f"motion of {over.mean():.0%} of pixels exceeds half the image (max {float(np.abs(mv).max()):.1f} px): "
+                "check meta motion.units and motion.scale",
             )
             return
         # A pixel whose previous position is off the previous frame came into view (a fast turn, or a
@@ -354,8 +354,9 @@ class SequenceChecker:
         px, py = xs + 0.5 + mv[ys, xs, 0], ys + 0.5 + mv[ys, xs, 1]
         inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
         if inside.any():
+            longest = float(np.abs(mv[ys[inside], xs[inside]]).max())
             self.report.warn(where, f"{int(inside.sum())} pixel(s) move more than half the image in one frame to a place "
-                                    f"inside the previous one (max {biggest:.1f} px)")
+                                    f"inside the previous one (max {longest:.1f} px)")
 
     # -- sign heuristics (full check only) ----------------------------------------------------------
 

@@ -28,13 +28,14 @@ previous frame; ``ops.conventions``), state the HR history and the HR lock statu
 4. Accumulate (``accumulate``; GPU ``fsr2_accumulate_pass``).  This frame's samples reach each HR
    pixel through the main lobe of a Lanczos-2 kernel on their distance in HR pixels (scaled by
    the kernel's width, FSR 2's footprint unless ``kernel_width`` is set), whose total is their
-   weight in the blend: a sample landing on the pixel centre counts fully.  The history, fetched by Catmull-Rom at the position the dilated motion
-   (bilinearly upsampled) gives, is clamped in YCoCg to the mean +- ``gamma`` std of the 3x3 LR
-   samples around the nearest one (less where a lock holds); its weight (fetched bilinearly) is
-   cut by the fetch's blur (``resample_penalty``), the depth clip and the optional reactive mask.
-   The frame's Lanczos-2 upsampling (exact windowed sinc, 4x4 LR taps, deringed to the 2x2
-   nearest samples) fills in with ``prior_weight``, fading as history weight builds up.  The
-   weight accumulates up to ``max_weight``; a reset or a surface from off-screen starts it at 0.
+   weight in the blend: a sample landing on the pixel centre counts fully.  The history, fetched
+   by Catmull-Rom at the position the dilated motion (bilinearly upsampled) gives, is clamped in
+   YCoCg to the mean +- ``gamma`` std of the 3x3 LR samples around the nearest one (less where a
+   lock holds); its weight (fetched bilinearly) is cut by the fetch's blur (``resample_penalty``),
+   the depth clip and the optional reactive mask.  The frame's Lanczos-2 upsampling (exact
+   windowed sinc, 4x4 LR taps, deringed to the 2x2 nearest samples) fills in with
+   ``prior_weight``, fading as history weight builds up.  The weight accumulates up to
+   ``max_weight``; a reset or a surface from off-screen starts it at 0.
 5. RCAS (``rcas``; GPU ``fsr2_rcas_pass``), optional.  Robust contrast-adaptive sharpening of the
    output (not of the history): a negative-lobe cross filter whose lobe is the strongest that
    cannot push the pixel outside [0, 1] given its four neighbours' extremes, capped and scaled by
