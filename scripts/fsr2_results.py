@@ -71,13 +71,24 @@ def run() -> dict:
     return doc
 
 
+def sequences_named(entry: dict, prefix: str) -> dict:
+    """``{sequence: {method: PSNR}}`` of one set x variant entry, the sequences named ``prefix...``."""
+    return {s: per for s, per in entry["sequences"].items() if s.startswith(prefix)}
+
+
+def mean_psnr(entry: dict, prefix: str) -> dict:
+    """``{method: mean PSNR}`` over the sequences named ``prefix...``."""
+    seqs = sequences_named(entry, prefix)
+    return {m: sum(per[m] for per in seqs.values()) / len(seqs) for m in METHODS}
+
+
 def table(entries: dict, prefix: str) -> list[str]:
     """Mean PSNR per variant over the sequences named ``prefix...``, and where fsr2 falls below taau."""
     lines = ["| variant | bicubic | taau | fsr2 | fsr2 - taau | sequences where fsr2 < taau |", "|---|---|---|---|---|---|"]
     for variant, entry in entries.items():
-        seqs = {s: per for s, per in entry["sequences"].items() if s.startswith(prefix)}
-        mean = {m: sum(per[m] for per in seqs.values()) / len(seqs) for m in METHODS}
-        below = [f"{s} ({per['fsr2'] - per['taau']:+.2f})" for s, per in seqs.items() if per["fsr2"] < per["taau"]]
+        mean = mean_psnr(entry, prefix)
+        below = [f"{s} ({per['fsr2'] - per['taau']:+.2f})" for s, per in sequences_named(entry, prefix).items()
+                 if per["fsr2"] < per["taau"]]
         lines.append(f"| {variant} | {mean['bicubic']:.2f} | {mean['taau']:.2f} | {mean['fsr2']:.2f} | "
                      f"{mean['fsr2'] - mean['taau']:+.2f} | {', '.join(below) or 'none'} |")
     return lines
@@ -89,8 +100,8 @@ def below_taau(doc: dict) -> str:
     for config, tables in TABLES.items():
         for heading, prefix in tables:
             for variant, entry in doc["sets"].get(config, {}).items():
-                seqs = [per for s, per in entry["sequences"].items() if s.startswith(prefix)]
-                gap = sum(per["fsr2"] - per["taau"] for per in seqs) / len(seqs)
+                mean = mean_psnr(entry, prefix)
+                gap = mean["fsr2"] - mean["taau"]
                 if gap < 0:
                     misses.append(f"{heading.split(' (')[0].format(n='')} {variant} ({gap:+.2f} dB)")
     if not misses:
