@@ -2,7 +2,7 @@
 
 Errors make the data unusable or wrong (missing or corrupt files, sizes that
 contradict meta.json, NaN/Inf, impossible values); warnings are suspicious but
-possible (large motion, a jitter sequence that is not the named pattern) or
+possible (large motion the reference does not bear out, a jitter sequence that is not the named pattern) or
 come from heuristics: the LR colour is compared with the HR reference at the
 jittered sample positions, and the previous reference is reprojected with the
 motion vectors, each also with the signs flipped, to catch sign mistakes in an
@@ -255,14 +255,14 @@ class SequenceChecker:
             return
         present = {p.name for p in folder.glob("*.exr") if not p.name.startswith(".")}
         expected = set()
-        for frame in self.meta.frames:
+        for t, frame in enumerate(self.meta.frames):
             path = buffer_path(self.seq, res, buffer, frame.index)
             expected.add(path.name)
             if path.name not in present:
                 self.report.error(self.rel(path), "missing frame")
                 continue
             self.report.files += 1
-            self.check_file(path, res, buffer, frame.reset)
+            self.check_file(path, res, buffer, t)
             self.on_file()
         extra = sorted(present - expected)
         if extra:
@@ -277,7 +277,7 @@ class SequenceChecker:
                 if sub.is_dir() and not sub.name.startswith(".") and sub.name not in self.meta.buffers.get(res, []):
                     self.report.warn(self.rel(sub), f"not listed in meta.json buffers.{res}: ignored by the loader")
 
-    def check_file(self, path: Path, res: str, buffer: str, reset: bool) -> None:
+    def check_file(self, path: Path, res: str, buffer: str, t: int) -> None:
         where, spec = self.rel(path), BUFFERS[res][buffer]
         try:
             with OpenEXR.File(str(path), header_only=True) as f:  # the header is only valid while open
@@ -302,7 +302,7 @@ class SequenceChecker:
         except UserError:
             self.report.error(where, "corrupt or truncated OpenEXR data (the header reads, the pixels do not)")
             return
-        self.check_values(where, raw, res, buffer, reset)
+        self.check_values(where, raw, res, buffer, t)
 
     def scale_hint(self, res: str, w: int, h: int) -> str:
         lw, lh = self.meta.lr_size
@@ -310,9 +310,10 @@ class SequenceChecker:
             return f" (it is {w // lw}x lr_size: is meta scale {self.meta.scale} wrong?)"
         return ""
 
-    def check_values(self, where: str, raw: np.ndarray, res: str, buffer: str, reset: bool) -> None:
-        """Value checks on one decoded ``(H, W, C)`` float32 buffer as stored."""
+    def check_values(self, where: str, raw: np.ndarray, res: str, buffer: str, t: int) -> None:
+        """Value checks on one decoded ``(H, W, C)`` float32 buffer as stored, of the ``t``-th frame."""
         m, err, warn = self.meta, self.report.error, self.report.warn
+        reset = m.frames[t].reset
         bad = ~np.isfinite(raw)
         if bad.any():
             y, x = np.argwhere(bad.any(axis=-1))[0]
@@ -325,7 +326,7 @@ class SequenceChecker:
             elif m.depth_encoding == "linear" and lo < 0.0:
                 warn(where, f"negative linear depth (min {lo:g}); view depth is positive in front of the camera")
         elif buffer == "motion" and not reset:  # motion across a camera cut means nothing and is not used
-            self.check_motion_range(where, raw, res)
+            self.check_motion_range(where, raw, res, t)
         elif buffer in COLOUR_BUFFERS:
             if m.color_space == "linear_hdr" and lo < -1e-3:
                 warn(where, f"negative colour values (min {lo:g}) in linear HDR")
@@ -334,7 +335,7 @@ class SequenceChecker:
         elif buffer in UNIT_RANGE_BUFFERS and (lo < -1e-3 or hi > 1.001):
             warn(where, f"{buffer} outside [0, 1] (min {lo:g}, max {hi:g})")
 
-    def check_motion_range(self, where: str, raw: np.ndarray, res: str) -> None:
+    def check_motion_range(self, where: str, raw: np.ndarray, res: str, t: int) -> None:
         w, h = self.meta.lr_size if res == "lr" else self.meta.hr_size
         mv = canonical_motion(raw, self.meta, (w, h))
         over = (np.abs(mv[..., 0]) > w / 2) | (np.abs(mv[..., 1]) > h / 2)
@@ -349,14 +350,44 @@ class SequenceChecker:
             return
         # A pixel whose previous position is off the previous frame came into view (a fast turn, or a
         # surface behind the previous camera, which the motion convention points off-screen): its
-        # history is none, however far the motion points.  A long motion that lands inside is suspect.
+        # history is none, however far the motion points.  A long motion that lands inside is suspect
+        # unless the reference bears it out, as it does in a fast pan.
         ys, xs = np.nonzero(over)
         px, py = xs + 0.5 + mv[ys, xs, 0], ys + 0.5 + mv[ys, xs, 1]
         inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
-        if inside.any():
-            longest = float(np.abs(mv[ys[inside], xs[inside]]).max())
-            self.report.warn(where, f"{int(inside.sum())} pixel(s) move more than half the image in one frame to a place "
-                                    f"inside the previous one (max {longest:.1f} px)")
+        if not inside.any():
+            return
+        ys, xs = ys[inside], xs[inside]
+        if self.reference_follows_motion(res, t, ys, xs, mv[ys, xs]):
+            return
+        longest = float(np.abs(mv[ys, xs]).max())
+        self.report.warn(where, f"{ys.size} pixel(s) move more than half the image in one frame to a place inside "
+                                f"the previous one (max {longest:.1f} px), and the reference does not follow them: "
+                                "check meta motion.units and motion.scale")
+
+    def reference_follows_motion(self, res: str, t: int, ys: np.ndarray, xs: np.ndarray, mv: np.ndarray) -> bool:
+        """The previous reference fetched where the motion of pixels ``ys, xs`` (of ``res``, in the ``t``-th
+        frame) points matches this frame's reference there clearly better than fetched unmoved or with
+        the motion multiplied or divided by the scale (the units mistakes that make motion long).  The
+        reference, not the LR colour, so that aliasing and jitter do not blur the comparison."""
+        m = self.meta
+        if t == 0:
+            return False
+        try:
+            prev = read_buffer(self.seq, m, "hr", "reference", m.frames[t - 1].index)
+            cur = read_buffer(self.seq, m, "hr", "reference", m.frames[t].index)
+        except UserError:  # a missing or corrupt reference is reported where it is checked
+            return False
+        rx, ry = _ratios(m) if res == "lr" else (1, 1)
+        x, y = (xs + np.float32(0.5)) * np.float32(rx), (ys + np.float32(0.5)) * np.float32(ry)
+        here = bilinear_sample(cur, x, y)
+
+        def error(factor: float) -> float:
+            fetched = bilinear_sample(prev, x + np.float32(factor * rx) * mv[:, 0], y + np.float32(factor * ry) * mv[:, 1])
+            return float(np.mean(np.abs(fetched - here)))
+
+        s = float(m.scale)
+        return error(1.0) < HEURISTIC_MARGIN * min(error(0.0), error(s), error(1.0 / s))
 
     # -- sign heuristics (full check only) ----------------------------------------------------------
 

@@ -156,6 +156,34 @@ def test_only_long_motion_that_lands_inside_the_previous_frame_warns(capsys, dat
                for line in out), out
 
 
+def test_long_motion_the_reference_bears_out_does_not_warn(capsys, dataset):
+    """A fast pan: the left part of frame 1 is frame 0's reference from 60% of the image to the right,
+    and its motion says so.  The reference bears the long motion out, so no warning; the same motion
+    over a reference it does not follow (the frame upside down) warns."""
+    from mnss_kit.dataset.check import canonical_motion
+    from mnss_kit.dataset.format import read_meta
+
+    seq = dataset / "pan"
+    meta = read_meta(seq)
+    (w, h), s = meta.lr_size, meta.scale
+    shift = round(0.6 * w)  # LR pixels: more than half the image
+    raw = read_raw_buffer(seq, "lr", "motion", 1)
+    unit = canonical_motion(np.ones_like(raw), meta, (w, h))[0, 0]
+    raw[..., :2] = 0.0  # the right part of the image stands still (under half moves: not the units error)
+    raw[:, : w - shift, 0] = shift / unit[0]
+    write_buffer(seq, "lr", "motion", 1, raw)
+    panned = read_raw_buffer(seq, "hr", "reference", 1)
+    panned[:, : (w - shift) * s] = read_raw_buffer(seq, "hr", "reference", 0)[:, shift * s :]
+    write_buffer(seq, "hr", "reference", 1, panned)
+    code, out = run(capsys, "check", seq)
+    assert code == 0 and not any("lr/motion/00001.exr" in line for line in out), out
+    write_buffer(seq, "hr", "reference", 1, panned[::-1].copy())
+    code, out = run(capsys, "check", seq)
+    assert code == 0
+    assert any(re.match(r"warning: pan/lr/motion/00001\.exr: \d+ pixel\(s\) move more than half the image .* "
+                        r"the reference does not follow them", line) for line in out), out
+
+
 @pytest.mark.parametrize(
     "change, expected",
     [
