@@ -32,6 +32,8 @@ log = logging.getLogger(__name__)
 
 HEURISTIC_FRAMES = 4  # frames used by the sign heuristics
 HEURISTIC_MARGIN = 0.8  # a flipped variant must beat the recorded one by this factor to warn
+SIGN_MIN_MOTION = 1.0  # HR pixels: the motion sign heuristic compares only pixels moving at least this far
+SIGN_MIN_PIXELS = 64  # ... and only frames with at least this many of them
 
 
 @dataclass
@@ -421,7 +423,8 @@ class SequenceChecker:
             )
 
     def check_motion_sign(self) -> None:
-        """Reprojecting the previous reference with the LR motion should beat flipped or zero motion."""
+        """Reprojecting the previous reference with the LR motion should beat flipped or zero motion, on
+        the pixels that move at least SIGN_MIN_MOTION HR pixels."""
         m = self.meta
         pairs = [t for t in range(1, m.frame_count) if not m.frames[t].reset]
         s = float(m.scale)
@@ -442,7 +445,13 @@ class SequenceChecker:
                 mv = upsample_motion_to(read_buffer(self.seq, m, "lr", "motion", m.frames[t].index), m.scale, m.hr_size)
             except UserError:
                 return
-            errors.append([float(np.mean(np.abs(warp_bilinear(prev, mv * np.float32(v)) - cur))) for v in variants.values()])
+            # Only pixels that move tell the variants apart: on still ones a packed motion's rounding
+            # (a hundredth of a pixel) would make "set to zero" win on a still camera.
+            moving = np.hypot(mv[..., 0], mv[..., 1]) >= SIGN_MIN_MOTION
+            if moving.sum() < SIGN_MIN_PIXELS:
+                continue
+            errors.append([float(np.mean(np.abs(warp_bilinear(prev, mv * np.float32(v)) - cur)[moving]))
+                           for v in variants.values()])
         if not errors or not all(np.isfinite(errors).flat):
             return
         med = dict(zip(variants, np.median(np.array(errors), axis=0)))

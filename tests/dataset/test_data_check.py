@@ -199,6 +199,23 @@ def test_motion_convention_mistakes_warn(capsys, dataset, change, expected):
     assert [line for line in out if line.startswith("warning:")] and expected in out[0], out
 
 
+def test_a_still_camera_with_rounded_motion_does_not_warn(capsys, dataset):
+    """A still camera whose packed motion rounds to a hundredth of a pixel (8-bit pairs do): the
+    reference reprojects better unmoved, but no pixel moves far enough to tell a sign mistake, so
+    the sign heuristic has nothing to say."""
+    from mnss_kit.dataset.format import read_meta
+
+    seq = dataset / "pan"
+    still = read_raw_buffer(seq, "hr", "reference", 0)
+    for t in range(1, read_meta(seq).frame_count):
+        write_buffer(seq, "hr", "reference", t, still)
+        raw = read_raw_buffer(seq, "lr", "motion", t)
+        raw[..., :2] = 0.0113
+        write_buffer(seq, "lr", "motion", t, raw)
+    code, out = run(capsys, "check", seq)
+    assert code == 0 and not any("reprojecting the reference" in line for line in out), out
+
+
 def test_negated_jitter_warns(capsys, dataset):
     def negate(m):
         for f in m["frames"]:
