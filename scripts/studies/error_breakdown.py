@@ -129,12 +129,24 @@ def sequences_in(data: Path) -> list[Path]:
     return sequences
 
 
-def main() -> int:
+def exit_status(body) -> int:
+    """Run ``body()``: 0, or a user mistake (UserError) as one line on stderr and 2."""
     from mnss_kit.errors import UserError
+
+    try:
+        body()
+    except UserError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def main() -> int:
     from mnss_kit.model.checkpoint import load
 
     args = model_and_data_args(__doc__.splitlines()[0])
-    try:
+
+    def body():
         model, _ = load(args.model)
         model.eval()
         sequences = sequences_in(args.data)
@@ -144,10 +156,8 @@ def main() -> int:
             print_table(seq.name, tally)
             pooled.merge(tally)
         print_table(f"all {len(sequences)} sequences", pooled)
-    except UserError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    return 0
+
+    return exit_status(body)
 
 
 if __name__ == "__main__":

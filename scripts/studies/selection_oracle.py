@@ -26,7 +26,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from error_breakdown import model_and_data_args, sequences_in  # noqa: E402
+from error_breakdown import exit_status, model_and_data_args, sequences_in  # noqa: E402
 
 BASELINES = ("taau", "fsr2", "bicubic")
 BLOCKS = (4, 8, 16)  # HR pixels per block side: 2, 4 and 8 LR pixels at x2
@@ -81,6 +81,7 @@ def sequence_rows(seq: Path, model, frames: int | None, warmup: int) -> list[dic
         for block in BLOCKS:
             sums = {name: block_sums(se, block) for name, se in errors.items()}
             pixels = sums["model"].size * block * block
+            row[f"model@{block}"] = frame_psnr(sums["model"].sum(), pixels)  # on the blocks' area, for the gains
             for base in BASELINES:
                 row[f"model|{base}@{block}"] = frame_psnr(np.minimum(sums["model"], sums[base]).sum(), pixels)
                 blended = blended_error(images["model"], images[base], reference, block)
@@ -101,10 +102,11 @@ def print_table(rows: list[dict]) -> None:
           + " | ".join(f"blocks {b} wins" for b in BASELINES) + " |")
     print("|---:|" + "---:|" * (3 * len(BASELINES) + 1))
     for block in BLOCKS:
-        picks = [f"{mean(f'model|{b}@{block}') - base:+.2f}" for b in BASELINES]
-        blends = [f"{mean(f'model+{b}@{block}') - base:+.2f}" for b in BASELINES]
+        start = mean(f"model@{block}")  # the model on the whole blocks only: an edge remainder is left out
+        picks = [f"{mean(f'model|{b}@{block}') - start:+.2f}" for b in BASELINES]
+        blends = [f"{mean(f'model+{b}@{block}') - start:+.2f}" for b in BASELINES]
         wins = [f"{mean(f'{b} wins@{block}'):.0%}" for b in BASELINES]
-        print(f"| {block} | " + " | ".join(picks) + f" | {mean(f'any@{block}') - base:+.2f} | " + " | ".join(blends)
+        print(f"| {block} | " + " | ".join(picks) + f" | {mean(f'any@{block}') - start:+.2f} | " + " | ".join(blends)
               + " | " + " | ".join(wins) + " |")
 
 
@@ -114,17 +116,16 @@ def main() -> int:
 
     args = model_and_data_args(__doc__.splitlines()[0], lambda p: p.add_argument(
         "--warmup", type=int, default=WARMUP, help="frames of each sequence run but not counted"))
-    try:
+
+    def body():
         model, _ = load(args.model)
         model.eval()
         rows = [row for seq in sequences_in(args.data) for row in sequence_rows(seq, model, args.frames, args.warmup)]
         if not rows:
             raise UserError(f"{args.data}: no frame after the {args.warmup}-frame warm-up")
         print_table(rows)
-    except UserError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    return 0
+
+    return exit_status(body)
 
 
 if __name__ == "__main__":
