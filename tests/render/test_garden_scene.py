@@ -146,7 +146,7 @@ def test_only_held_out_configs_render_the_garden_and_only_training_configs_the_p
     def users(scene: str) -> set[str]:
         return {p.stem for p in (CONFIG_DIR / "data").glob("*.yaml") if scene in {s.scene for s in load_render_config(str(p)).sequences}}
 
-    assert users("garden") == {"garden_x2", "unseen_x2", "stress"}
+    assert users("garden") == {"garden_x2", "unseen_x2", "stress", "studio_garden_x2"}
     plaza = users("plaza")
     assert {"train_figures_x2", "train_engine_x2"} <= plaza and all(name.startswith("train_") for name in plaza)
     unseen = {s.name: s for s in load_render_config("unseen_x2").sequences}
