@@ -38,7 +38,6 @@ RECIPE = {
     "steps_per_epoch": 100,
     "checkpoint_every": 25,  # an interrupted run loses at most this many steps
     "val_every": 0,
-    "threads": 0,  # every idle core
 }
 DEFAULT_MINUTES = 15.0
 DETAIL_SHARE = 0.4  # of the minutes with ``detail``: the branch's fit (recording included); the steering gets the rest
@@ -57,19 +56,22 @@ class FinetuneResult:
 
 def finetune(capture: Path, out: Path, model: str, minutes: float = DEFAULT_MINUTES, hold_back: float = DEFAULT_HOLD_BACK,
              warmup: int = DEFAULT_WARMUP, sequences: list[str] | None = None, progress: bool = True,
-             detail: bool = False) -> FinetuneResult:
+             detail: bool = False, threads: int = 0) -> FinetuneResult:
     """Fine-tune ``model`` on ``capture`` and judge it on the held-back frames (see the module doc);
-    ``detail``: the steering for part of the minutes, then a detail branch fitted (ntaau_lr only)."""
+    ``detail``: the steering for part of the minutes, then a detail branch fitted (ntaau_lr only);
+    ``threads``: torch threads for both (``train.threads``: 0 is a share of the idle cores)."""
     from .detail import check_detail, fit_detail
 
     if not 0.0 < hold_back < 1.0:
         raise UserError(f"--hold-back is the share of frames judged, in (0, 1); got {hold_back}")
     if minutes <= 0:
         raise UserError(f"--minutes must be positive, got {minutes}")
+    if threads < 0:
+        raise UserError(f"--threads must be >= 0 (0: a share of the idle cores), got {threads}")
     seqs = _checked_sequences(capture, sequences)
     smallest = min(min(fmt.read_meta(s).lr_size) for s in seqs)
     steer_minutes = minutes * (1.0 - DETAIL_SHARE) if detail else minutes
-    experiment, record = _experiment(model, out / "split" / "tune", steer_minutes, smallest)
+    experiment, record = _experiment(model, out / "split" / "tune", steer_minutes, smallest, threads)
     if detail:
         check_detail(record, model)
     train_cfg = experiment.train
@@ -82,7 +84,7 @@ def finetune(capture: Path, out: Path, model: str, minutes: float = DEFAULT_MINU
                            experiment.train.threads)
     summary = _judge(model, tuned, out, splits, progress)
     summary["settings"] = {"capture": portable_path(capture), "model": model, "minutes": minutes, "hold_back": hold_back,
-                           "warmup": warmup, "recipe": RECIPE, "detail": detail,
+                           "warmup": warmup, "recipe": RECIPE, "threads": threads, "detail": detail,
                            "detail_share": DETAIL_SHARE if detail else None,
                            "sequences": {s.name: {"frames": s.frames, "tuned": len(s.tune), "held_back": len(s.held_back)}
                                          for s in splits}}
@@ -106,16 +108,17 @@ def _checked_sequences(capture: Path, names: list[str] | None) -> list[Path]:
     return seqs
 
 
-def _experiment(model: str, tune_dir: Path, minutes: float, smallest_side: int):
+def _experiment(model: str, tune_dir: Path, minutes: float, smallest_side: int, threads: int = 0):
     """The fine-tune's experiment: the checkpoint's own model config and training settings with RECIPE,
-    its crops no larger than the capture's smallest LR side."""
+    its crops no larger than the capture's smallest LR side, on ``threads`` torch threads."""
     from ..model import checkpoint
     from ..model.config import model_config_from_dict
     from ..train.config import ExperimentConfig, TrainConfig
 
     record, _ = checkpoint.read_record(model)
     trained = {k: v for k, v in (record.get("train") or {}).items() if k in TrainConfig.__dataclass_fields__}
-    settings = {**trained, **RECIPE, "train_data": [str(tune_dir)], "time_budget_min": minutes, "init": None}
+    settings = {**trained, **RECIPE, "train_data": [str(tune_dir)], "time_budget_min": minutes, "init": None,
+                "threads": threads}
     settings["crop"] = min(settings.get("crop", smallest_side), smallest_side)
     train_cfg = from_dict(TrainConfig, settings, source=f"{model} record")
     config = model_config_from_dict(record.get("config"), source=f"{model} record")

@@ -56,3 +56,14 @@ def test_the_budget_not_the_start_models_run_length_ends_a_fine_tune(tmp_path):
     assert record["train"]["total_steps"] == 6000
     assert experiment.train.total_steps is None and experiment.train.steps >= 1_000_000
     assert experiment.train.time_budget_min == 15.0
+
+
+def test_threads_reach_the_training_and_a_negative_count_is_refused(tmp_path, capsys, capture):
+    from mnss_kit.finetune.run import _experiment
+
+    assert _experiment("ntaau_lr_x2", tmp_path / "tune", 15.0, 180, threads=2)[0].train.threads == 2
+    assert _experiment("ntaau_lr_x2", tmp_path / "tune", 15.0, 180)[0].train.threads == 0  # a share of the idle cores
+    assert main(["finetune", str(capture), "--out", str(tmp_path / "o"), "--threads", "-1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--threads must be >= 0" in err[0]
+    assert not (tmp_path / "o").exists()
