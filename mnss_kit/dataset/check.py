@@ -388,8 +388,7 @@ class SequenceChecker:
             fetched = bilinear_sample(prev, x + np.float32(factor * rx) * mv[:, 0], y + np.float32(factor * ry) * mv[:, 1])
             return float(np.mean(np.abs(fetched - here)))
 
-        s = float(m.scale)
-        return error(1.0) < HEURISTIC_MARGIN * min(error(0.0), error(s), error(1.0 / s))
+        return error(1.0) < HEURISTIC_MARGIN * min(error(f) for f in _units_mistakes(m.scale).values())
 
     # -- sign heuristics (full check only) ----------------------------------------------------------
 
@@ -427,15 +426,12 @@ class SequenceChecker:
         the pixels that move at least SIGN_MIN_MOTION HR pixels."""
         m = self.meta
         pairs = [t for t in range(1, m.frame_count) if not m.frames[t].reset]
-        s = float(m.scale)
         variants = {
             "as recorded": (1, 1),
             "negated": (-1, -1),
             "with x negated": (-1, 1),
             "with y negated": (1, -1),
-            "set to zero": (0, 0),
-            f"multiplied by the scale ({m.scale})": (s, s),  # HR pixels written into the LR buffer
-            f"divided by the scale ({m.scale})": (1 / s, 1 / s),
+            **{name: (f, f) for name, f in _units_mistakes(m.scale).items()},
         }
         errors = []
         for t in _spread(pairs, HEURISTIC_FRAMES):
@@ -466,6 +462,13 @@ class SequenceChecker:
             self.rel(self.seq),
             f"reprojecting the reference works better with the motion {best} (mean error {med[best]:.4f} vs {med['as recorded']:.4f}): {hint}",
         )
+
+
+def _units_mistakes(scale) -> dict[str, float]:
+    """The motion factors of the usual units mistakes, by how ``data check`` names them: no motion
+    written, HR pixels written into the LR buffer, or the reverse."""
+    s = float(scale)
+    return {"set to zero": 0.0, f"multiplied by the scale ({scale})": s, f"divided by the scale ({scale})": 1.0 / s}
 
 
 def _scale_ok(scale) -> bool:
