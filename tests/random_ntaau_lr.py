@@ -5,6 +5,7 @@ import torch
 
 from mnss_kit.model.families import build_model, randomise_convs
 from mnss_kit.model.ntaau_lr.config import NTAAULRConfig
+from mnss_kit.model.ntaau_lr.net import branch_last_conv
 
 
 def random_ntaau_lr(**options) -> torch.nn.Module:
@@ -16,6 +17,6 @@ def random_ntaau_lr(**options) -> torch.nn.Module:
     model = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1, **options)), noise=0.5)
     if model.config.detail:
         with torch.no_grad():
-            for p in [*model.steer.decode[-1].parameters(), *model.steer.detail[-1].parameters()]:
+            for p in [*model.steer.decode[-1].parameters(), *branch_last_conv(model.steer.detail).parameters()]:
                 p.mul_(0.05)
     return model

@@ -131,8 +131,10 @@ def test_random_steering_stays_finite_and_in_range():
 
 # -- the bundle chain ---------------------------------------------------------------------------
 LR_SIZES = {"even": (32, 18), "odd": (33, 19)}  # (w, h): the odd one pads the NPU tensors to 34x20
-# (w, h) and the config's options of each bundle: a detail branch (model.detail) at the odd size
-BUNDLES = {"even": (LR_SIZES["even"], {}), "odd": (LR_SIZES["odd"], {}), "detail": (LR_SIZES["odd"], {"detail": True})}
+# (w, h) and the config's options of each bundle: a detail branch (model.detail) at the odd size, in
+# its first form and in the one finetune --detail fits (finetune.detail.BRANCH)
+BUNDLES = {"even": (LR_SIZES["even"], {}), "odd": (LR_SIZES["odd"], {}), "detail": (LR_SIZES["odd"], {"detail": True}),
+           "detail_unet": (LR_SIZES["odd"], {"detail": True, "detail_form": "unet", "detail_reads": "all"})}
 GOLDEN_FRAMES = 4
 
 
@@ -230,7 +232,7 @@ def _without_detail(model):
 
     plain = copy.deepcopy(model)
     with torch.no_grad():
-        for p in plain.steer.detail[-1].parameters():
+        for p in net.branch_last_conv(plain.steer.detail).parameters():
             p.zero_()
     return plain
 

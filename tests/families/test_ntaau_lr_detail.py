@@ -15,7 +15,7 @@ from mnss_kit.errors import UserError
 from mnss_kit.model.families import build_model, randomise_convs
 from mnss_kit.model.ntaau_lr.config import NTAAULRConfig
 from mnss_kit.model.ntaau_lr.gpu_plan import bundle_gpu_plan, resources, schedule
-from mnss_kit.model.ntaau_lr.net import detail_luma
+from mnss_kit.model.ntaau_lr.net import branch_first_conv, detail_luma
 from mnss_kit.ops import taau_lr
 from mnss_kit.quantize.trace import trace
 from ntaau_lr_checks import assert_close, gather_against_reference, hwc
@@ -57,13 +57,19 @@ def test_the_detail_inputs_are_their_numpy_reference(scale, size, scale_input):
     assert_close(g.features, g.want, ATOL)
 
 
-def test_the_exported_net_has_no_slice_and_is_the_net():
+@pytest.mark.parametrize("form", ["convs", "unet"])
+@pytest.mark.parametrize("reads", ["history", "all"])
+def test_the_exported_net_has_no_slice_and_is_the_net(reads, form):
     """The traced NPU stage of a detail model: no op but the graph's (a slice would fail the trace),
-    one concatenation of the steering and the patch, and the same function as the torch net."""
+    one concatenation of the steering and the patch, and the same function as the torch net, whether
+    the branch reads the history's luma only or every input (``detail_reads``), with either form."""
     from mnss_kit.quantize.fakequant import GraphModule
 
     torch.manual_seed(0)
-    net = randomise_convs(build_model(NTAAULRConfig(width=8, mid_layers=1, detail=True)), noise=0.5).steer
+    config = NTAAULRConfig(width=8, mid_layers=1, detail=True, detail_reads=reads, detail_form=form)
+    net = randomise_convs(build_model(config), noise=0.5).steer
+    first = branch_first_conv(net.detail)
+    assert first.in_channels == (net.c_in if reads == "all" else 0) + 4
     x = torch.rand(1, net.c_in + 4, 6, 8)
     graph = trace(net, [x])
     assert [op.kind for op in graph.ops].count("CONCATENATION") == 1 and graph.ops[-1].kind == "CONCATENATION"
@@ -72,7 +78,7 @@ def test_the_exported_net_has_no_slice_and_is_the_net():
         got = GraphModule(graph)(x)
     got = got[0] if isinstance(got, (tuple, list)) else got
     assert want.shape == (1, 10, 6, 8) and want[:, 6:].abs().max() > 0.01
-    torch.testing.assert_close(got, want, atol=1e-4, rtol=1e-5)  # float32 sums in another order; outputs reach ~170
+    torch.testing.assert_close(got, want, atol=1e-4, rtol=1e-4)  # float32 sums in another order; outputs reach ~170
 
 
 def test_a_bundle_plan_sizes_the_boundary_for_the_detail_branch():

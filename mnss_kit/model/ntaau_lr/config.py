@@ -39,8 +39,9 @@ class NTAAULRConfig:
     still_motion_px: float = 0.0
     # the NPU input gets a 9th channel, 1 / scale (a constant map), so one checkpoint can serve several scales
     scale_input: bool = False
-    # a detail branch beside the steering: 3 convs of detail_width at LR read the clamped history's
-    # luma at each of the s x s HR pixels of an LR pixel and write a luma patch per LR pixel (4 more
+    # a detail branch beside the steering: a net of detail_width at LR (detail_form) reads the clamped
+    # history's luma at each of the s x s HR pixels of an LR pixel (and with detail_reads "all" the
+    # steering's features too) and writes a luma patch per LR pixel (4 more
     # outputs, each at most detail_bound) added to the display.  Its last conv starts at zero, so a
     # model given the branch starts as the one without it; it is display-only (the history never
     # holds it).  Integer scales only.  In a bundle the NPU input gets the s x s luma channels and the
@@ -48,6 +49,13 @@ class NTAAULRConfig:
     detail: bool = False
     detail_bound: float = 0.1
     detail_width: int = 16
+    # what the branch's first conv reads: "history" the s x s history luma only; "all" the steering's
+    # features too (this frame's colour, depth change, clamp distance ...).  The NPU input is the same
+    # either way: the exported branch reads every input channel (FullInputSteerNet)
+    detail_reads: Literal["history", "all"] = "history"
+    # the branch's net: "convs" three convs 3x3 at LR; "unet" an encoder-decoder as the steering's
+    # (conv, two convs at half LR, conv 1x1, conv), about twice the receptive field
+    detail_form: Literal["convs", "unet"] = "convs"
 
     def __post_init__(self):
         from ...errors import UserError
@@ -71,6 +79,10 @@ class NTAAULRConfig:
             raise ValueError(f"history_gain_min must be in [0, 1], got {self.history_gain_min}")
         if self.detail and not float(self.scale).is_integer():
             raise ValueError(f"detail takes integer scales only, got {self.scale}")
+        if self.detail_form not in ("convs", "unet"):
+            raise ValueError(f"detail_form must be convs or unet, got {self.detail_form!r}")
+        if self.detail_reads not in ("history", "all"):
+            raise ValueError(f"detail_reads must be history or all, got {self.detail_reads!r}")
         if not 0.0 < self.detail_bound <= 0.5:
             raise ValueError(f"detail_bound must be in (0, 0.5], got {self.detail_bound}")
         if self.still_motion_px < 0.0:

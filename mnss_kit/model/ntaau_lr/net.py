@@ -24,7 +24,8 @@ accumulation):
                        with them
 
 With ``model.detail`` (integer scales) the NPU input also holds the clamped history's luma at each
-of the s x s HR pixels of an LR pixel, a branch of three convs beside the steering turns them into
+of the s x s HR pixels of an LR pixel, a branch beside the steering (three convs or an
+encoder-decoder, reading those or every input: ``detail_form``, ``detail_reads``) turns them into
 4 more raw values per LR pixel, and lr_accumulate adds their luma patch (``detail_luma``) to the
 display, never to the history.
 
@@ -43,6 +44,7 @@ blend, ``weight`` (N,1,H,W) its accumulated weight, ``depth`` (N,1,h,w) the last
 from __future__ import annotations
 
 import contextlib
+import copy
 
 import torch
 import torch.nn.functional as F
@@ -124,22 +126,12 @@ class Gather(nn.Module):
         return inputs, trust(change, spread, self.config), pad_even(features)
 
 
-class SteerNet(nn.Module):
-    """The NPU part, an encoder-decoder at LR: Conv2d (bias), ReLU, PixelUnshuffle, PixelShuffle,
-    add; fx-traceable.  ``forward(features)``: (N, 8, h, w), h and w even -> raw steering (N, 6, h, w);
-    with the detail branch (``model.detail``) the inputs after the steering's go to its own three
-    convs, whose 4 outputs follow the steering's (exported as :class:`FullInputSteerNet`)."""
+class EncoderDecoder(nn.Module):
+    """Conv 3x3 at LR, space-to-depth, ``mid_layers`` convs 3x3 at half LR, conv 1x1, depth-to-space,
+    added to the first conv's output, conv 3x3 (its weights zero: a fresh one outputs zeros)."""
 
-    placement = "npu"
-
-    def __init__(self, c_in: int, width: int, mid_layers: int, c_out: int, detail_in: int = 0, detail_width: int = 16):
+    def __init__(self, c_in: int, width: int, mid_layers: int, c_out: int):
         super().__init__()
-        self.c_in = c_in
-        if detail_in:  # the detail branch (``model.detail``): its own convs on the inputs after the steering's
-            self.detail = nn.Sequential(_conv(detail_in, detail_width, 3), nn.ReLU(), _conv(detail_width, detail_width, 3),
-                                        nn.ReLU(), nn.Conv2d(detail_width, DETAIL_CHANNELS, 3, padding=1))
-            nn.init.zeros_(self.detail[-1].weight)  # draws nothing until trained
-            nn.init.zeros_(self.detail[-1].bias)
         self.encode = nn.Sequential(_conv(c_in, width, 3), nn.ReLU())
         mid: list[nn.Module] = [nn.PixelUnshuffle(2)]
         channels = 4 * width
@@ -149,16 +141,71 @@ class SteerNet(nn.Module):
         mid += [_conv(channels, 4 * width, 1), nn.PixelShuffle(2)]
         self.middle = nn.Sequential(*mid)
         self.decode = nn.Sequential(nn.ReLU(), nn.Conv2d(width, c_out, 3, padding=1))
-        nn.init.zeros_(self.decode[1].weight)  # a fresh net outputs zeros: TAAU itself
+        nn.init.zeros_(self.decode[1].weight)
         nn.init.zeros_(self.decode[1].bias)
+
+    def forward(self, x):
+        encoded = self.encode(x)
+        return self.decode(encoded + self.middle(encoded))
+
+
+def detail_branch(c_in: int, width: int, form: str) -> nn.Module:
+    """The detail branch (``model.detail``): ``convs`` three convs 3x3 at LR, or ``unet`` an
+    encoder-decoder as the steering's (two convs at half LR), about twice the receptive field; its
+    last conv zero, so it draws nothing until trained."""
+    if form == "unet":
+        return EncoderDecoder(c_in, width, 2, DETAIL_CHANNELS)
+    branch = nn.Sequential(_conv(c_in, width, 3), nn.ReLU(), _conv(width, width, 3), nn.ReLU(),
+                           nn.Conv2d(width, DETAIL_CHANNELS, 3, padding=1))
+    nn.init.zeros_(branch[-1].weight)
+    nn.init.zeros_(branch[-1].bias)
+    return branch
+
+
+def _first_conv_path(branch: nn.Module) -> tuple[nn.Sequential, int]:
+    """``(container, index)`` of a detail branch's first conv."""
+    return (branch.encode, 0) if isinstance(branch, EncoderDecoder) else (branch, 0)
+
+
+def branch_first_conv(branch: nn.Module) -> nn.Conv2d:
+    """A detail branch's first conv (its in_channels: the channels the branch reads)."""
+    container, index = _first_conv_path(branch)
+    return container[index]
+
+
+def branch_last_conv(branch: nn.Module) -> nn.Conv2d:
+    """A detail branch's last conv (zero: the branch draws nothing)."""
+    return branch.decode[-1] if isinstance(branch, EncoderDecoder) else branch[-1]
+
+
+class SteerNet(EncoderDecoder):
+    """The NPU part, an encoder-decoder at LR: Conv2d (bias), ReLU, PixelUnshuffle, PixelShuffle,
+    add; fx-traceable.  ``forward(features)``: (N, 8, h, w), h and w even -> raw steering (N, 6, h, w);
+    with the detail branch (``model.detail``) the branch reads the inputs after the steering's (or
+    all of them: ``model.detail_reads``) and its 4 outputs follow the steering's (exported as
+    :class:`FullInputSteerNet`).  A fresh net outputs zeros: TAAU itself."""
+
+    placement = "npu"
+
+    def __init__(self, c_in: int, width: int, mid_layers: int, c_out: int, detail_in: int = 0, detail_width: int = 16,
+                 detail_reads_all: bool = False, detail_form: str = "convs"):
+        super().__init__(c_in, width, mid_layers, c_out)
+        self.c_in = c_in
+        # the branch's inputs start at channel 0 (``model.detail_reads`` all) or after the steering's
+        self.detail_first = 0 if detail_reads_all else c_in
+        if detail_in:
+            self.detail = detail_branch(detail_in + (c_in if detail_reads_all else 0), detail_width, detail_form)
 
     def forward(self, features):
         steering = features[:, :self.c_in] if hasattr(self, "detail") else features
-        encoded = self.encode(steering)
-        raw = self.decode(encoded + self.middle(encoded))
+        raw = super().forward(steering)
         if hasattr(self, "detail"):
-            raw = torch.cat([raw, self.detail(features[:, self.c_in:])], dim=1)
+            raw = torch.cat([raw, self.detail(self.detail_input(features))], dim=1)
         return raw
+
+    def detail_input(self, features: torch.Tensor) -> torch.Tensor:
+        """The channels of ``features`` the detail branch reads."""
+        return features[:, self.detail_first:]
 
     def graph_form(self) -> nn.Module:
         """The module the int8 NPU graph is traced from (``quantize.trace``): this net, or with the
@@ -173,10 +220,12 @@ class FullInputSteerNet(nn.Module):
 
     def __init__(self, net: SteerNet):
         super().__init__()
-        channels = net.c_in + net.detail[0].in_channels
+        channels = net.detail_first + branch_first_conv(net.detail).in_channels
         self.encode = nn.Sequential(_reading_all(net.encode[0], channels, 0), *net.encode[1:])
         self.middle, self.decode = net.middle, net.decode
-        self.detail = nn.Sequential(_reading_all(net.detail[0], channels, net.c_in), *net.detail[1:])
+        self.detail = copy.deepcopy(net.detail)
+        container, index = _first_conv_path(self.detail)
+        container[index] = _reading_all(container[index], channels, net.detail_first)
 
     def forward(self, features):
         encoded = self.encode(features)
@@ -286,7 +335,7 @@ class NTAAULR(nn.Module):
         self.lr_gather = Gather(config, self.params)
         detail_in = config.npu_input_channels() - config.steer_input_channels()
         self.steer = SteerNet(config.steer_input_channels(), config.width, config.mid_layers, STEER_CHANNELS, detail_in,
-                              config.detail_width)
+                              config.detail_width, config.detail_reads == "all", config.detail_form)
         self.lr_accumulate = Accumulate(self.params, config)
         # (W, H) of the output at a fractional scale when it is not round_half_up(lr * s) (data made from a
         # display size: 1280x720 at 1.7 renders 753x424, and 424 * 1.7 rounds to 721); None: hr_dims
@@ -309,8 +358,8 @@ class NTAAULR(nn.Module):
     @contextlib.contextmanager
     def recording_detail_inputs(self):
         """Within the block, each forward appends the branch's input (N, s*s, h', w') to the list yielded."""
-        recorded, c_in = [], self.steer.c_in
-        hook = self.steer.register_forward_hook(lambda module, args, out: recorded.append(args[0][:, c_in:]))
+        recorded, steer = [], self.steer
+        hook = steer.register_forward_hook(lambda module, args, out: recorded.append(steer.detail_input(args[0])))
         try:
             yield recorded
         finally:
