@@ -1,6 +1,6 @@
 """The fine-tune's second phase (``mnss-kit finetune --detail``): a detail branch fitted to the capture.
 
-An ntaau_lr model's detail branch (``model.detail``: three convs at LR drawing a luma patch per LR
+An ntaau_lr model's detail branch (``model.detail``: a small net at LR drawing a luma patch per LR
 pixel) is display-only: the history never depends on it, so it is fitted by plain regression on
 frames recorded once rather than through the recurrent loop, whose steps spend their time on
 burn-in frames and the steering.  The tuned model, given an empty branch (it draws nothing), runs
@@ -25,6 +25,7 @@ from ..errors import UserError
 from ..model import checkpoint
 from ..model.config import model_config_from_dict
 from ..model.families import build_model
+from ..model.ntaau_lr.net import branch_first_conv
 
 log = logging.getLogger(__name__)
 
@@ -33,9 +34,11 @@ BATCH = 8
 LR = 1.0e-3  # the branch starts from zero and has one capture to learn: a base run's rate, not a fine-tune's
 SAVE_EVERY_S = 60.0  # an interrupted fit loses at most this much
 RECORD_BYTES = 2 << 30  # recorded frames beyond this are thinned evenly (float16)
-# the branch a fine-tune fits: width 8 gained as much as 16 and 32 on a factory capture (+0.35, +0.36,
-# +0.39 dB) at a third of 16's MACs; a bound of 0.3 gained 0.05 dB more than 0.1 (docs/studies/ntaau_lr.md)
-BRANCH = {"detail_width": 8, "detail_bound": 0.3}
+# the branch a fine-tune fits (docs/studies/ntaau_lr.md, "A detail branch"): on a factory capture width
+# 8 gained as much as 16 and 32; a bound of 0.3 gained 0.05 dB more than 0.1; reading this frame's
+# features beside the history's luma +0.24 dB more (the NPU input is the same); an encoder-decoder
+# instead of three convs +0.17 more
+BRANCH = {"detail_width": 16, "detail_bound": 0.3, "detail_reads": "all", "detail_form": "unet"}
 
 
 def check_detail(record: dict, model: str, what: str = "--detail") -> None:
@@ -69,7 +72,7 @@ def with_empty_branch(path: Path, settings: dict | None = None) -> tuple[torch.n
 
 
 def record_frames(model, tune_dir: Path | list[Path], warmup: int, progress: bool = True):
-    """``(branch inputs, displays, references)``: lists of float16 (s*s, h, w), (3, H, W) and (3, H, W)
+    """``(branch inputs, displays, references)``: lists of float16 (branch channels, h, w), (3, H, W) and (3, H, W)
     of every frame of ``tune_dir`` (sequences or directories of them) from index ``warmup`` on,
     thinned evenly to :data:`RECORD_BYTES`."""
     from tqdm import tqdm
@@ -81,7 +84,8 @@ def record_frames(model, tune_dir: Path | list[Path], warmup: int, progress: boo
     seqs = fmt.find_sequences(tune_dir)
     metas = [fmt.read_meta(s) for s in seqs]
     kept = _kept_indices([(s.name, len(m.frames)) for s, m in zip(seqs, metas)], warmup,
-                          max(m.lr_size[0] * m.lr_size[1] for m in metas), int(model.scale))
+                          max(m.lr_size[0] * m.lr_size[1] for m in metas), int(model.scale),
+                          branch_first_conv(model.steer.detail).in_channels)
     inputs, displays, references = [], [], []
     bar = tqdm(total=sum(len(m.frames) for m in metas), unit="frame", desc="record", disable=None if progress else True)
     with model.recording_detail_inputs() as branch_inputs, bar:
@@ -102,13 +106,14 @@ def record_frames(model, tune_dir: Path | list[Path], warmup: int, progress: boo
     return inputs, displays, references
 
 
-def _kept_indices(counts: list[tuple[str, int]], warmup: int, lr_pixels: int, s: int) -> set[tuple[str, int]]:
+def _kept_indices(counts: list[tuple[str, int]], warmup: int, lr_pixels: int, s: int,
+                  branch_channels: int) -> set[tuple[str, int]]:
     """The recorded frames of sequences ``(name, frames)``: all after each warm-up, or every k-th of
-    them when they would not fit in :data:`RECORD_BYTES`."""
+    them when they would not fit in :data:`RECORD_BYTES` (``branch_channels`` at LR, 6 at HR)."""
     after = [(name, i) for name, n in counts for i in range(warmup, n)]
     if not after:
         return set()
-    per_frame = 2 * 7 * s * s * lr_pixels  # float16: the branch input, the display and the reference
+    per_frame = 2 * (branch_channels + 6 * s * s) * lr_pixels  # float16: the branch input, the display and the reference
     k = max(1, -(-len(after) * per_frame // RECORD_BYTES))
     if k > 1:
         log.info("--detail: %d tuned frames would not fit in %d MiB; fitting on every %d-th", len(after), RECORD_BYTES >> 20, k)
@@ -131,8 +136,9 @@ def fit_branch(model, recorded, seconds: float, last: Path, record: dict, progre
         _, state = load_last(last, model, optimizer)
         steps, elapsed = int(state["step"]), float(state["elapsed_s"])
         log.info("--detail: resuming the branch fit at step %d (%.0f s done)", steps, elapsed)
-    crop_h = min(CROP, *(t.shape[-2] for t in inputs))
-    crop_w = min(CROP, *(t.shape[-1] for t in inputs))
+    # even: an encoder-decoder branch halves its crop once (the model pads whole frames itself)
+    crop_h = min(CROP, *(t.shape[-2] for t in inputs)) // 2 * 2
+    crop_w = min(CROP, *(t.shape[-1] for t in inputs)) // 2 * 2
     bar = tqdm(total=round(seconds), initial=min(round(elapsed), round(seconds)), unit="s", desc="fit detail",
                disable=None if progress else True)
     model.train()

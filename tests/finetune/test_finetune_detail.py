@@ -13,6 +13,7 @@ from mnss_kit.cli import main
 from mnss_kit.dataset.synthetic import write_synthetic_sequence
 from mnss_kit.finetune import detail
 from mnss_kit.model import checkpoint
+from mnss_kit.model.ntaau_lr.net import branch_last_conv
 
 
 @pytest.fixture(scope="module")
@@ -23,8 +24,9 @@ def capture(tmp_path_factory):
 
 
 def _branch_is_empty(path) -> bool:
-    _, weights = checkpoint.read_record(path)
-    return not weights["steer.detail.4.weight"].any()
+    """Whether the branch's last conv (``net.branch_last_conv``: it starts at zero) is still zero."""
+    model, _ = checkpoint.load(path)
+    return not branch_last_conv(model.steer.detail).weight.any()
 
 
 def test_detail_fits_a_branch_after_the_steering(capture, tmp_path):
@@ -94,7 +96,16 @@ def test_an_empty_branch_leaves_the_model_as_it_was(capture):
 
 def test_recorded_frames_are_thinned_evenly_past_the_memory_budget(monkeypatch):
     counts = [("a", 10), ("b", 10)]
-    assert len(detail._kept_indices(counts, 4, 100, 2)) == 12  # all after each warm-up
+    assert len(detail._kept_indices(counts, 4, 100, 2, 4)) == 12  # all after each warm-up
     monkeypatch.setattr(detail, "RECORD_BYTES", 2 * 7 * 4 * 100 * 4)  # room for 4 frames
-    kept = sorted(detail._kept_indices(counts, 4, 100, 2))
+    kept = sorted(detail._kept_indices(counts, 4, 100, 2, 4))
     assert kept == [("a", 4), ("a", 7), ("b", 4), ("b", 7)]
+
+
+def test_a_capture_of_odd_size_below_the_crop_is_fitted(tmp_path):
+    """Crops are even (the encoder-decoder branch halves them once), also when the capture is smaller
+    than a crop and odd."""
+    write_synthetic_sequence(tmp_path / "cap" / "odd", lr_size=(27, 21), frames=8, name="odd")
+    fitted = detail.fit_detail(checkpoint.resolve("ntaau_lr_x2"), tmp_path / "cap", tmp_path / "d", 0.01, 4,
+                               progress=False)
+    assert checkpoint.read_record(fitted)[0]["detail_fit"]["steps"] > 0
