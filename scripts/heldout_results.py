@@ -53,7 +53,9 @@ TAAU_MARGIN_DB, BICUBIC_MARGIN_DB = 1.0, 4.0
 # SSIM and IF-SSIM within SSIM_SLACK of TAAU's
 BEST_SLACK_DB, SSIM_SLACK = 0.1, 0.002
 ENGINE_LINK = ("The same sets as an engine sends them, judged against the 16-sample box and against a native TAA frame, with "
-               "the FSR2-class upscaler beside TAAU: [results_engine.md](results_engine.md) (`scripts/engine_results.py`).")
+               "the FSR2-class upscaler beside TAAU: [results_engine.md](results_engine.md) (`scripts/engine_results.py`).  "
+               "The default fine-tuned on a studio's capture of a scene family it never saw (`mnss-kit finetune --detail`), "
+               "with its cost: [results_finetune.md](results_finetune.md) (`scripts/finetune_results.py`).")
 INT8_PSNR_DB, INT8_IF_SSIM = 0.1, 0.001
 
 
