@@ -25,7 +25,6 @@ from ..errors import UserError
 from ..model import checkpoint
 from ..model.config import model_config_from_dict
 from ..model.families import build_model
-from ..model.ntaau_lr.net import branch_first_conv
 
 log = logging.getLogger(__name__)
 
@@ -85,7 +84,7 @@ def record_frames(model, tune_dir: Path | list[Path], warmup: int, progress: boo
     metas = [fmt.read_meta(s) for s in seqs]
     kept = _kept_indices([(s.name, len(m.frames)) for s, m in zip(seqs, metas)], warmup,
                           max(m.lr_size[0] * m.lr_size[1] for m in metas), int(model.scale),
-                          branch_first_conv(model.steer.detail).in_channels)
+                          model.detail_input_channels())
     inputs, displays, references = [], [], []
     bar = tqdm(total=sum(len(m.frames) for m in metas), unit="frame", desc="record", disable=None if progress else True)
     with model.recording_detail_inputs() as branch_inputs, bar:

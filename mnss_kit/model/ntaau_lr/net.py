@@ -365,6 +365,10 @@ class NTAAULR(nn.Module):
         finally:
             hook.remove()
 
+    def detail_input_channels(self) -> int:
+        """The channels per LR pixel the branch reads (its recorded input)."""
+        return branch_first_conv(self.steer.detail).in_channels
+
     def detail_parameters(self) -> dict[str, nn.Parameter]:
         """The branch's parameters by their names in the model."""
         return {f"steer.detail.{k}": p for k, p in self.steer.detail.named_parameters()}
