@@ -228,8 +228,7 @@ class FullInputSteerNet(nn.Module):
         container[index] = _reading_all(container[index], channels, net.detail_first)
 
     def forward(self, features):
-        encoded = self.encode(features)
-        return torch.cat([self.decode(encoded + self.middle(encoded)), self.detail(features)], dim=1)
+        return torch.cat([EncoderDecoder.forward(self, features), self.detail(features)], dim=1)
 
 
 def _reading_all(conv: nn.Conv2d, channels: int, first: int) -> nn.Conv2d:
