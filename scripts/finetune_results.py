@@ -58,8 +58,9 @@ def run_capture(name: str, threads: int) -> dict:
     costs = {}
     for device in DEVICES:
         placement = work / f"split_{device}.json"
-        if not placement.is_file():
-            mnss_kit("split", str(out / "detail" / "model.pt"), "--device", device, "--json", str(placement))
+        model = out / "detail" / "model.pt"
+        if not placement.is_file() or placement.stat().st_mtime < model.stat().st_mtime:  # a refitted model is costed anew
+            mnss_kit("split", str(model), "--device", device, "--json", str(placement))
         costs[device] = _cost(read_json(placement))
     return {"config": CAPTURES[name], "heldback": read_json(out / "heldback.json"), "costs": costs,
             "steps": _steps(out)}

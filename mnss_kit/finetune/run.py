@@ -40,7 +40,9 @@ RECIPE = {
     "val_every": 0,
 }
 DEFAULT_MINUTES = 15.0
-DETAIL_SHARE = 0.4  # of the minutes with ``detail``: the branch's fit (recording included); the steering gets the rest
+# of the minutes with ``detail``: the branch's fit (recording included); the steering gets the rest.
+# The wider branch takes longer to fit, and the steering's share adds little (docs/studies/ntaau_lr.md)
+DETAIL_SHARE = 0.7
 DEFAULT_HOLD_BACK = 0.4
 DEFAULT_WARMUP = 4
 JUDGED_METRICS = ("psnr", "ssim", "if_ssim")
