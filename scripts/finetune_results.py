@@ -118,11 +118,10 @@ def _capture_section(name: str, entry: dict) -> list[str]:
              f"(goal +{GOAL_DB:g} over both: {'met' if met else 'missed'})", ""]
     lines += ["| method | PSNR | over the default | SSIM | IF-SSIM | warp error |", "|---|---:|---:|---:|---:|---:|"]
     labels = {"finetuned": "fine-tuned", "before": f"the default (`{settings['model']}`)", "fsr2": "FSR2-class"}
-    warp = _mean_warp_error(held["per_frame"])
     for method, s in m.items():
         if_ssim = "-" if s["if_ssim"] is None else f"{s['if_ssim']:.4f}"
         lines.append(f"| {labels.get(method, method)} | {s['psnr']:.2f} | {s['psnr'] - before:+.2f} | {s['ssim']:.4f} | {if_ssim} "
-                     f"| {warp.get(method, float('nan')):.5f} |")
+                     f"| {s['temporal_error']:.5f} |")
     lines += ["", "IF-SSIM (higher) and the warp error (the mean absolute difference to the previous output warped by the "
               "motion, lower) say how steady each output is from frame to frame."]
     margins = {seq: v["finetuned"]["psnr"] - v["before"]["psnr"] for seq, v in held["sequences"].items()}
@@ -137,17 +136,6 @@ def _capture_section(name: str, entry: dict) -> list[str]:
     for device, c in entry["costs"].items():
         lines.append(f"| {device} | {c['ms']:.2f} | {c['in_bytes_per_px']:.3g} / {c['out_bytes_per_px']:.3g} |")
     return lines + [""]
-
-
-def _mean_warp_error(per_frame: list[dict]) -> dict[str, float]:
-    """Per method, the mean warp error (``metrics.temporal``) over the held-back frames that have one."""
-    import math
-
-    values: dict[str, list[float]] = {}
-    for r in per_frame:
-        if r.get("temporal_error") is not None and not math.isnan(r["temporal_error"]):
-            values.setdefault(r["method"], []).append(r["temporal_error"])
-    return {k: sum(v) / len(v) for k, v in values.items()}
 
 
 def _frames_below_default(per_frame: list[dict]) -> list[float]:

@@ -45,7 +45,7 @@ DEFAULT_MINUTES = 15.0
 DETAIL_SHARE = 0.7
 DEFAULT_HOLD_BACK = 0.4
 DEFAULT_WARMUP = 4
-JUDGED_METRICS = ("psnr", "ssim", "if_ssim")
+JUDGED_METRICS = ("psnr", "ssim", "if_ssim", "temporal_error")
 JUDGED_BASELINES = ("taau", "fsr2", "bicubic")
 
 
@@ -178,10 +178,11 @@ def _stats(stats: dict) -> dict:
 def format_judgement(summary: dict) -> str:
     """A Markdown table: per method, the held-back means and the PSNR margin over the model before tuning."""
     before = summary["methods"]["before"]["psnr"]
-    lines = ["| method | PSNR (dB) | vs before | SSIM | IF-SSIM |", "|---|---:|---:|---:|---:|"]
+    lines = ["| method | PSNR (dB) | vs before | SSIM | IF-SSIM | warp error |", "|---|---:|---:|---:|---:|---:|"]
     for name, s in summary["methods"].items():
-        cells = [f"{s['psnr']:.2f}", f"{s['psnr'] - before:+.2f}",
-                 f"{s['ssim']:.4f}", "-" if s["if_ssim"] is None else f"{s['if_ssim']:.4f}"]
+        cells = [f"{s['psnr']:.2f}", f"{s['psnr'] - before:+.2f}", f"{s['ssim']:.4f}",
+                 *("-" if s.get(k) is None else f"{s[k]:.{d}f}" for k, d in (("if_ssim", 4), ("temporal_error", 5)))]
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
-    lines.append(f"\n{summary['frames']} held-back frame(s); `before` is the model the fine-tune started from.")
+    lines.append(f"\n{summary['frames']} held-back frame(s); `before` is the model the fine-tune started from; "
+                 "the warp error is the mean change from the frame before, warped (lower is steadier).")
     return "\n".join(lines)
