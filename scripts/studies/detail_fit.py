@@ -8,7 +8,8 @@ phase, then judged on its held-back frames: the screens behind ``mnss-kit finetu
 (written there, by the fine-tune's own split, when missing); ``--finetune-out DIR`` takes a
 fine-tune's own ``DIR/split``.  The model is given an empty branch
 and the branch alone is fitted for ``--minutes`` by ``mnss_kit.finetune.detail`` (recording, crops,
-loss and rate as the fine-tune's).
+loss and rate as the fine-tune's); ``--flicker F`` adds F times the change of the error between
+consecutive frames to the fit (``finetune.detail.FLICKER_WEIGHT``).
 
 ``--form convs`` or ``unet`` (the model's own branch, ``model.detail_form``; ``--reads history``
 its clamped-history luma, ``--reads all`` the steering's features too) is judged by the
@@ -70,13 +71,13 @@ def fit_screen(branch: ScreenBranch, recorded, seconds: float) -> int:
     """``branch`` fitted as ``finetune.detail.fit_branch`` fits the model's own: L1 on random crops."""
     from mnss_kit.finetune import detail
 
-    inputs, displays, references = recorded
     optimizer = torch.optim.Adam(branch.parameters(), lr=detail.LR)
-    crop_h = min(detail.CROP, *(t.shape[-2] for t in inputs)) // 2 * 2  # even, as the fine-tune's
-    crop_w = min(detail.CROP, *(t.shape[-1] for t in inputs)) // 2 * 2
+    crop_h = min(detail.CROP, *(t.shape[-2] for t in recorded.inputs)) // 2 * 2  # even, as the fine-tune's
+    crop_w = min(detail.CROP, *(t.shape[-1] for t in recorded.inputs)) // 2 * 2
+    pool = detail._fitted_entries(recorded, paired=False)
     steps, start = 0, time.monotonic()
     while time.monotonic() - start < seconds:
-        x, display, reference = detail._batch(inputs, displays, references, crop_h, crop_w, branch.scale)
+        x, display, reference, _, _ = detail._batch(recorded, pool, crop_h, crop_w, branch.scale)
         loss = ((display + branch.patch(x, display)).clamp(0, 1) - reference).abs().mean()
         optimizer.zero_grad()
         loss.backward()
@@ -113,6 +114,7 @@ def judge_screen(model, branch: ScreenBranch, judged_dir: Path, warmup: int) -> 
 
 def main() -> None:
     from mnss_kit.dataset import format as fmt
+    from mnss_kit.fileio import atomic_write_json
     from mnss_kit.finetune import detail, run as finetune
     from mnss_kit.finetune.split import plan_split, write_split
     from mnss_kit.model import checkpoint
@@ -130,6 +132,8 @@ def main() -> None:
     p.add_argument("--reads", choices=("history", "all"), default="history", help="model.detail_reads")
     p.add_argument("--form", choices=("convs", "unet", "display", "rgb"), default="convs",
                    help="the branch: model.detail_form (convs, unet) or a screen (display, rgb)")
+    p.add_argument("--flicker", type=float, default=0.0,
+                   help="weight of the error's change between consecutive frames (finetune.detail.FLICKER_WEIGHT)")
     p.add_argument("--threads", type=int, default=1)
     args = p.parse_args()
     args.split = args.split or args.finetune_out / "split"
@@ -156,7 +160,8 @@ def main() -> None:
               f"{before:.2f} -> {after:.2f} dB ({after - before:+.2f})")
         return
     with tempfile.TemporaryDirectory() as scratch:
-        steps = detail.fit_branch(model, recorded, args.minutes * 60, Path(scratch) / "last.pt", record)
+        steps = detail.fit_branch(model, recorded, args.minutes * 60, Path(scratch) / "last.pt", record,
+                                  flicker_weight=args.flicker)
     print(f"{len(recorded[0])} frames recorded, {steps} steps in {args.minutes:g} min")
     checkpoint.save(args.out / "model.pt", model, record)
     judged = args.out / "split" / "judged"
@@ -164,6 +169,7 @@ def main() -> None:
         judged.parent.mkdir(parents=True, exist_ok=True)
         judged.symlink_to((args.split / "judged").resolve())
     summary = finetune._judge(args.model, args.out / "model.pt", args.out, splits, progress=False)
+    atomic_write_json(args.out / "heldback.json", summary)
     print(finetune.format_judgement(summary))
 
 

@@ -109,3 +109,33 @@ def test_a_capture_of_odd_size_below_the_crop_is_fitted(tmp_path):
     fitted = detail.fit_detail(checkpoint.resolve("ntaau_lr_x2"), tmp_path / "cap", tmp_path / "d", 0.01, 4,
                                progress=False)
     assert checkpoint.read_record(fitted)[0]["detail_fit"]["steps"] > 0
+
+
+def test_recorded_frames_know_the_frame_before_unless_the_camera_cut(tmp_path):
+    write_synthetic_sequence(tmp_path / "cap" / "cut", lr_size=(16, 12), frames=10, name="cut", cut_at=7)
+    model, _ = detail.with_empty_branch(checkpoint.resolve("ntaau_lr_x2"))
+    recorded = detail.record_frames(model, tmp_path / "cap", warmup=4, progress=False)
+    assert recorded.previous == [-1, 0, 1, -1, 3, 4]  # frames 4..9; 4 and the cut at 7 have none before
+    assert recorded.motions[0].shape == (2, 12, 16)
+
+
+def test_paired_crops_take_the_same_place_of_the_frame_before():
+    s, n = 2, 4
+    lr = [torch.full((3, 8, 10), float(i)) for i in range(n)]
+    hr = [torch.full((3, 16, 20), float(i)) for i in range(n)]
+    for t in lr + hr:  # a ramp, so a crop's place shows in its values
+        t += torch.arange(t.shape[-1]).float() / 100
+    recorded = detail.Recorded(lr, hr, [h + 1 for h in hr], [torch.zeros(2, 8, 10)] * n, [-1, 0, 1, -1])
+    pool = detail._fitted_entries(recorded, paired=True)
+    assert pool == [1, 2]
+    x, display, reference, motion, before = detail._batch(recorded, pool, 4, 4, s, paired=True)
+    x_prev, display_prev, reference_prev = before
+    assert torch.allclose(x - x_prev, torch.ones_like(x)) and torch.allclose(display - display_prev, torch.ones_like(display))
+    assert torch.equal(reference_prev, display_prev + 1) and motion.shape == (detail.BATCH, 2, 4, 4)
+    assert detail._batch(recorded, pool, 4, 4, s)[4] is None
+
+
+def test_a_fit_with_a_flicker_weight_needs_two_consecutive_frames():
+    one = detail.Recorded([torch.zeros(3, 4, 4)], [torch.zeros(3, 8, 8)], [torch.zeros(3, 8, 8)], [torch.zeros(2, 4, 4)], [-1])
+    with pytest.raises(detail.UserError, match="consecutive"):
+        detail._fitted_entries(one, paired=True)
