@@ -30,6 +30,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--detail", action="store_true",
                         help="ntaau_lr models at an integer scale: after the steering, fit a detail branch that "
                              "sharpens the display (OUT/detail/model.pt; more NPU work and boundary traffic)")
+    parser.add_argument("--detail-width", type=int, metavar="N",
+                        help="the detail branch's width (default: 24); a narrower one costs less NPU time and "
+                             "gains less (docs/training.md)")
     parser.add_argument("--sequences", nargs="+", metavar="NAME", help="only these sequences of the capture")
     parser.add_argument("--threads", type=int, default=0,
                         help="torch threads for the training (default 0: a share of the cores the 1-minute load "
@@ -47,7 +50,8 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or Path("runs") / f"finetune_{args.capture.resolve().name}"
     check_output(out, "into")
     result = finetune(args.capture, out, args.model, minutes=args.minutes, hold_back=args.hold_back, warmup=args.warmup,
-                      sequences=args.sequences, progress=not args.no_progress, detail=args.detail, threads=args.threads)
+                      sequences=args.sequences, progress=not args.no_progress, detail=args.detail, threads=args.threads,
+                      detail_width=args.detail_width)
     print(result.table)
     print(f"wrote {out / 'heldback.json'}, {out / 'heldback.md'} and crops in {out / 'crops'}")
     return 0

@@ -223,26 +223,32 @@ def _batch(recorded: Recorded, pool: list[int], crop_h: int, crop_w: int, s: int
 
 
 def fit_detail(tuned: Path, tune_dir: Path | list[Path], out_dir: Path, minutes: float, warmup: int,
-               progress: bool = True, threads: int = 0) -> Path:
-    """``out_dir/model.pt``: the model at ``tuned`` with a detail branch fitted on ``tune_dir`` for
-    ``minutes`` (recording included) on ``threads`` torch threads (``train.threads``: 0 is a share
-    of the idle cores); kept when done, resumed from ``last.pt`` when cut.  A fit of another model
-    in ``out_dir`` is refused in one line."""
+               progress: bool = True, threads: int = 0, width: int | None = None) -> Path:
+    """``out_dir/model.pt``: the model at ``tuned`` with a detail branch (:data:`BRANCH`, of ``width``
+    when given) fitted on ``tune_dir`` for ``minutes`` (recording included) on ``threads`` torch
+    threads (``train.threads``: 0 is a share of the idle cores); kept when done, resumed from
+    ``last.pt`` when cut.  A fit of another model or width in ``out_dir`` is refused in one line."""
     from ..fileio import sha256_file
     from ..train.distributed import World, cpu_threads
     from ..train.state import FINAL, LAST
 
     final, last, base = out_dir / FINAL, out_dir / LAST, sha256_file(tuned)
+    branch = {**BRANCH, **({} if width is None else {"detail_width": width})}
     for done in (p for p in (final, last) if p.is_file()):
-        if (checkpoint.read_record(done)[0].get("detail_fit") or {}).get("base_sha256", base) != base:
+        fitted = checkpoint.read_record(done)[0].get("detail_fit") or {}
+        if fitted.get("base_sha256", base) != base:
             raise UserError(f"{done} fitted a branch to another model than {tuned} (remove {out_dir} or choose another output)")
+        if fitted.get("width", branch["detail_width"]) != branch["detail_width"]:
+            raise UserError(f"{done} fitted a branch of width {fitted['width']}, not {branch['detail_width']} "
+                            f"(remove {out_dir} or choose another output)")
     if final.is_file():
         log.info("detail branch already fitted: %s", final)
         return final
     torch.set_num_threads(cpu_threads(World(), threads))
     start = time.monotonic()
-    model, record = with_empty_branch(tuned, BRANCH)
-    record = {**record, "detail_fit": {"base_sha256": base, "minutes": minutes}}  # in last.pt too: what it resumes
+    model, record = with_empty_branch(tuned, branch)
+    # in last.pt too: what it resumes
+    record = {**record, "detail_fit": {"base_sha256": base, "width": branch["detail_width"], "minutes": minutes}}
     recorded = record_frames(model, tune_dir, warmup, progress)
     recording_s = time.monotonic() - start
     steps = fit_branch(model, recorded, max(0.0, minutes * 60.0 - recording_s), last, record, progress)

@@ -58,11 +58,12 @@ class FinetuneResult:
 
 def finetune(capture: Path, out: Path, model: str, minutes: float = DEFAULT_MINUTES, hold_back: float = DEFAULT_HOLD_BACK,
              warmup: int = DEFAULT_WARMUP, sequences: list[str] | None = None, progress: bool = True,
-             detail: bool = False, threads: int = 0) -> FinetuneResult:
+             detail: bool = False, threads: int = 0, detail_width: int | None = None) -> FinetuneResult:
     """Fine-tune ``model`` on ``capture`` and judge it on the held-back frames (see the module doc);
-    ``detail``: the steering for part of the minutes, then a detail branch fitted (ntaau_lr only);
+    ``detail``: the steering for part of the minutes, then a detail branch fitted (ntaau_lr only),
+    of ``detail_width`` when given (else ``finetune.detail.BRANCH``'s);
     ``threads``: torch threads for both (``train.threads``: 0 is a share of the idle cores)."""
-    from .detail import check_detail, fit_detail
+    from .detail import BRANCH, check_detail, fit_detail
 
     if not 0.0 < hold_back < 1.0:
         raise UserError(f"--hold-back is the share of frames judged, in (0, 1); got {hold_back}")
@@ -70,6 +71,9 @@ def finetune(capture: Path, out: Path, model: str, minutes: float = DEFAULT_MINU
         raise UserError(f"--minutes must be positive, got {minutes}")
     if threads < 0:
         raise UserError(f"--threads must be >= 0 (0: a share of the idle cores), got {threads}")
+    if detail_width is not None and (not detail or detail_width < 1):
+        raise UserError(f"--detail-width takes a positive width and --detail; got {detail_width}"
+                        + ("" if detail else " without --detail"))
     seqs = _checked_sequences(capture, sequences)
     smallest = min(min(fmt.read_meta(s).lr_size) for s in seqs)
     steer_minutes = minutes * (1.0 - DETAIL_SHARE) if detail else minutes
@@ -83,11 +87,11 @@ def finetune(capture: Path, out: Path, model: str, minutes: float = DEFAULT_MINU
     tuned = _train(experiment, out / "run", model, progress)
     if detail:
         tuned = fit_detail(tuned, out / "split" / "tune", out / "detail", minutes * DETAIL_SHARE, warmup, progress,
-                           experiment.train.threads)
+                           experiment.train.threads, detail_width)
     summary = _judge(model, tuned, out, splits, progress)
     summary["settings"] = {"capture": portable_path(capture), "model": model, "minutes": minutes, "hold_back": hold_back,
                            "warmup": warmup, "recipe": RECIPE, "threads": threads, "detail": detail,
-                           "detail_share": DETAIL_SHARE if detail else None,
+                           "detail_share": DETAIL_SHARE if detail else None, "detail_width": (detail_width or BRANCH["detail_width"]) if detail else None,
                            "sequences": {s.name: {"frames": s.frames, "tuned": len(s.tune), "held_back": len(s.held_back)}
                                          for s in splits}}
     atomic_write_json(out / "heldback.json", summary)

@@ -139,3 +139,28 @@ def test_a_fit_with_a_flicker_weight_needs_two_consecutive_frames():
     one = detail.Recorded([torch.zeros(3, 4, 4)], [torch.zeros(3, 8, 8)], [torch.zeros(3, 8, 8)], [torch.zeros(2, 4, 4)], [-1])
     with pytest.raises(detail.UserError, match="consecutive"):
         detail._fitted_entries(one, paired=True)
+
+
+def test_a_narrower_branch_is_fitted_and_a_fit_of_another_width_is_not_resumed(capture, tmp_path, capsys):
+    out = tmp_path / "ft"
+    args = ["finetune", str(capture), "--out", str(out), "--minutes", "0.1", "--detail", "--no-progress"]
+    assert main([*args, "--detail-width", "4"]) == 0
+    record, _ = checkpoint.read_record(out / "detail" / "model.pt")
+    assert record["config"]["detail_width"] == 4 and record["detail_fit"]["width"] == 4
+    assert json.loads((out / "heldback.json").read_text())["settings"]["detail_width"] == 4
+    assert main(args) == 2  # the default width (BRANCH's) into the same output
+    err = capsys.readouterr().err.strip()
+    assert f"width 4, not {detail.BRANCH['detail_width']}" in err and len(err.splitlines()) == 1
+
+
+def test_detail_width_needs_detail_and_a_positive_width(capture, tmp_path, capsys):
+    args = ["finetune", str(capture), "--out", str(tmp_path / "ft"), "--minutes", "0.1", "--no-progress"]
+    assert main([*args, "--detail-width", "8"]) == 2
+    assert main([*args, "--detail", "--detail-width", "0"]) == 2
+    assert "without --detail" in capsys.readouterr().err
+
+
+def test_the_help_gives_the_shipped_width(capsys):
+    with pytest.raises(SystemExit):
+        main(["finetune", "--help"])
+    assert f"(default: {detail.BRANCH['detail_width']})" in capsys.readouterr().out
