@@ -50,13 +50,14 @@ def detail_note(rows: list[dict], settings: dict) -> str:
 
     by_name = {r["config"]: r for r in rows}
     gains = []
-    for row in (r for r in rows if r["config"].endswith(DETAIL) and base_config(r["config"]) in by_name):
+    for row in (r for r in rows if base_config(r["config"]) != r["config"] and base_config(r["config"]) in by_name):
         base = by_name[base_config(row["config"])]
         pairs = zip(row.get("seeds") or [row], base.get("seeds") or [base])
         gains.append(f"{row['config']} " + ", ".join(f"{a['psnr'] - b['psnr']:+.2f}" for a, b in pairs) + " dB")
     if not gains:
         return ""
-    return (f" A CONFIG{DETAIL} rung is CONFIG's with the detail branch of finetune --detail fitted on the training "
+    return (f" A CONFIG{DETAIL} rung is CONFIG's with the detail branch of finetune --detail (CONFIG{DETAIL}N: of "
+            f"width N) fitted on the training "
             f"sequences ({settings.get('detail_minutes', 0):g} min); its gain over CONFIG, seed by seed: {'; '.join(gains)}.")
 
 

@@ -27,7 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "such as 1.5 (default: the data's)")
     parser.add_argument("--ladder", nargs="+", metavar="CONFIG",
                         help="model configs to try, CONFIG+detail for an ntaau_lr config with a detail branch fitted on "
-                             "the scene (as finetune --detail fits it); a config at another scale is trained at the data's when its family "
+                             "the scene (as finetune --detail fits it), CONFIG+detailN with one of width N; a config at another scale is trained at the data's when its family "
                              "runs at any scale, refused otherwise (default: every shipped config at the scale, or at a "
                              "scale none is shipped at, such as 1.5, every config of a family that runs at any scale)")
     parser.add_argument("--steps", type=_positive_int, default=2000, help="training steps per rung (default: %(default)s)")

@@ -24,7 +24,8 @@ from .select import Budget, Target, choose
 log = logging.getLogger(__name__)
 BASELINES = ("bicubic", "taau")
 # a rung "CONFIG+detail": CONFIG's rung, then the detail branch of ``finetune --detail`` fitted on the
-# training sequences for ``SizeRequest.detail_minutes`` (ntaau_lr, integer scales)
+# training sequences for ``SizeRequest.detail_minutes`` (ntaau_lr, integer scales); "CONFIG+detailN"
+# the same with a branch of width N
 DETAIL = "+detail"
 DETAIL_MINUTES = FINETUNE_MINUTES * DETAIL_SHARE  # the branch's fit in a fine-tune of the default budget
 
@@ -145,7 +146,10 @@ def ladder_configs(names: list[str] | None, scale: int | float, what: str = "the
     unknown = [n for n in names if base_config(n) not in rows]
     if unknown:
         raise UserError(f"unknown model config '{base_config(unknown[0])}' (shipped: {', '.join(sorted(rows))}; "
-                        f"CONFIG{DETAIL} adds a detail branch)")
+                        f"CONFIG{DETAIL} adds a detail branch, CONFIG{DETAIL}N one of width N)")
+    for name in (n for n in names if detail_width(n) is not None):
+        if detail_width(name) < 1:
+            raise UserError(f"rung '{name}': a detail branch needs a width of at least 1")
     for name in (n for n in names if rows[base_config(n)]["scale"] != scale):
         _check_runs_at(base_config(name), scale, what)
     macs = {n: rows[n]["macs_per_pixel"] if n in rows else _detail_rung_macs(n, scale) for n in names}
@@ -155,12 +159,25 @@ def ladder_configs(names: list[str] | None, scale: int | float, what: str = "the
 
 
 def base_config(name: str) -> str:
-    """The model config a rung trains: ``name`` without :data:`DETAIL`."""
-    return name.removesuffix(DETAIL)
+    """The model config a rung trains: ``name`` without its :data:`DETAIL` suffix (and width)."""
+    head, found, width = name.rpartition(DETAIL)
+    return head if found and (width == "" or width.isdigit()) else name
+
+
+def detail_width(name: str) -> int | None:
+    """The detail branch's width of rung ``name``: N for ``CONFIG+detailN``, ``finetune.detail.BRANCH``'s
+    for ``CONFIG+detail``, None for a rung without a branch."""
+    from ..finetune.detail import BRANCH
+
+    base = base_config(name)
+    if base == name:
+        return None
+    width = name[len(base) + len(DETAIL):]
+    return int(width) if width else BRANCH["detail_width"]
 
 
 def _detail_rung_macs(name: str, scale: int | float) -> float:
-    """MACs per pixel of rung ``CONFIG+detail`` (refused in one line when CONFIG cannot take the branch)."""
+    """MACs per pixel of rung ``CONFIG+detail[N]`` (refused in one line when CONFIG cannot take the branch)."""
     from ..config import to_dict
     from ..finetune.detail import BRANCH, branch_config, check_detail
     from ..model.config import load_model_config
@@ -169,7 +186,8 @@ def _detail_rung_macs(name: str, scale: int | float) -> float:
 
     config = load_model_config(base_config(name))
     check_detail({"family": config.family, "scale": scale}, base_config(name), what=f"rung '{name}'")
-    return count_macs(build_model(branch_config(to_dict(config), BRANCH, source=f"rung '{name}'"))).total
+    branch = {**BRANCH, "detail_width": detail_width(name)}
+    return count_macs(build_model(branch_config(to_dict(config), branch, source=f"rung '{name}'"))).total
 
 
 def default_ladder(rows: dict[str, dict], scale: int | float) -> list[str]:
@@ -215,7 +233,7 @@ def train_rung(name: str, train_seqs: list[Path], scale: int | float, request: S
     run_dir = request.out / "runs" / (name if seed_run == 0 else f"{name}_seed{experiment.train.seed}")
     if name != base_config(name):
         return _fit_detail_rung(train_rung(base_config(name), train_seqs, scale, request, seed_run), train_seqs,
-                                run_dir, request, experiment.train.threads)
+                                run_dir, request, experiment.train.threads, detail_width(name))
     final, last = run_dir / FINAL, run_dir / LAST
     if final.is_file():
         record, _ = read_record(final)
@@ -230,13 +248,14 @@ def train_rung(name: str, train_seqs: list[Path], scale: int | float, request: S
     return train(experiment, run_dir, resume=resume, progress=request.progress)
 
 
-def _fit_detail_rung(base: Path, train_seqs: list[Path], run_dir: Path, request: SizeRequest, threads: int) -> Path:
-    """``run_dir/model.pt``: the rung at ``base`` with ``finetune --detail``'s branch fitted on ``train_seqs``
-    on ``threads`` torch threads (the rungs' ``train.threads``)."""
+def _fit_detail_rung(base: Path, train_seqs: list[Path], run_dir: Path, request: SizeRequest, threads: int,
+                     width: int) -> Path:
+    """``run_dir/model.pt``: the rung at ``base`` with ``finetune --detail``'s branch, of ``width``,
+    fitted on ``train_seqs`` on ``threads`` torch threads (the rungs' ``train.threads``)."""
     from ..finetune.detail import fit_detail
     from ..finetune.run import DEFAULT_WARMUP
 
-    return fit_detail(base, train_seqs, run_dir, request.detail_minutes, DEFAULT_WARMUP, request.progress, threads)
+    return fit_detail(base, train_seqs, run_dir, request.detail_minutes, DEFAULT_WARMUP, request.progress, threads, width)
 
 
 def _finished(record: dict) -> bool:

@@ -104,6 +104,10 @@ def test_seeds_train_each_rung_again_and_judge_it_by_the_mean(scene, sized, tmp_
     (["--target", "within:1", "--ladder", "mnss_x2_tiny", "mnss_x2_small+detail"],
      "rung 'mnss_x2_small+detail': mnss_x2_small is a mnss model; only ntaau_lr models take a detail branch"),
     (["--target", "within:1", "--detail-minutes", "0"], "--detail-minutes must be positive"),
+    (["--target", "within:1", "--ladder", "ntaau_lr_x2_tiny", "ntaau_lr_x2_tiny+detail0"],
+     "rung 'ntaau_lr_x2_tiny+detail0': a detail branch needs a width of at least 1"),
+    (["--target", "within:1", "--ladder", "ntaau_lr_x2_tiny", "ntaau_lr_x2_tiny+detailx"],
+     "unknown model config 'ntaau_lr_x2_tiny+detailx'"),
 ])
 def test_user_mistakes_are_one_line_errors(scene, tmp_path, capsys, extra, message):
     code = main(["size", "--data", str(scene / "data"), "--out", str(tmp_path / "o"), "--no-progress", *extra])
@@ -199,3 +203,14 @@ def test_a_ladder_at_1_5_trains_its_rungs_at_1_5_and_says_so(scene_1_5, tmp_path
     assert list(doc["rows"]) == ["ntaau_lr_x2_tiny", "ntaau_lr_x2_small"]
     assert all(read_record(out / row["checkpoint"])[0]["scale"] == 1.5 for row in doc["rows"].values())
     assert "At x1.5: trained 3 steps per rung" in (out / "size.md").read_text()
+
+
+def test_detail_rungs_of_several_widths_are_a_ladder_by_their_cost():
+    """CONFIG+detailN: a branch of width N, ordered among the rungs by its MACs (CONFIG+detail is BRANCH's width)."""
+    from mnss_kit.finetune.detail import BRANCH
+    from mnss_kit.size.run import base_config, detail_width
+
+    rungs = ["ntaau_lr_x2+detail", "ntaau_lr_x2+detail8", "ntaau_lr_x2", "ntaau_lr_x2+detail16"]
+    assert ladder_configs(rungs, 2) == ["ntaau_lr_x2", "ntaau_lr_x2+detail8", "ntaau_lr_x2+detail16", "ntaau_lr_x2+detail"]
+    assert [detail_width(n) for n in rungs] == [BRANCH["detail_width"], 8, None, 16]
+    assert {base_config(n) for n in rungs} == {"ntaau_lr_x2"}
