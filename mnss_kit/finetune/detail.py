@@ -55,6 +55,11 @@ def check_detail(record: dict, model: str, what: str = "--detail") -> None:
         raise UserError(f"{what}: {model} is x{record.get('scale')}; the detail branch takes integer scales only")
 
 
+def branch_settings(width: int | None = None) -> dict:
+    """The model settings of the branch a fine-tune fits: :data:`BRANCH`, of ``width`` when given."""
+    return {**BRANCH, **({} if width is None else {"detail_width": width})}
+
+
 def branch_config(config: dict, settings: dict | None = None, source: str = "model config"):
     """The model config ``config`` (a dict) with a detail branch, of ``settings`` (``detail_width``,
     ``detail_bound``) where given, else the config's own."""
@@ -233,7 +238,7 @@ def fit_detail(tuned: Path, tune_dir: Path | list[Path], out_dir: Path, minutes:
     from ..train.state import FINAL, LAST
 
     final, last, base = out_dir / FINAL, out_dir / LAST, sha256_file(tuned)
-    branch = {**BRANCH, **({} if width is None else {"detail_width": width})}
+    branch = branch_settings(width)
     for done in (p for p in (final, last) if p.is_file()):
         fitted = checkpoint.read_record(done)[0].get("detail_fit") or {}
         if fitted.get("base_sha256", base) != base:
@@ -251,7 +256,7 @@ def fit_detail(tuned: Path, tune_dir: Path | list[Path], out_dir: Path, minutes:
     record = {**record, "detail_fit": {"base_sha256": base, "width": branch["detail_width"], "minutes": minutes}}
     recorded = record_frames(model, tune_dir, warmup, progress)
     recording_s = time.monotonic() - start
-    steps = fit_branch(model, recorded, max(0.0, minutes * 60.0 - recording_s), last, record, progress)
+    steps = fit_branch(model, recorded, max(0.0, minutes * 60.0 - recording_s), last, record, progress, FLICKER_WEIGHT)
     record["detail_fit"].update(frames=len(recorded.inputs), steps=steps, lr=LR, crop=CROP, batch=BATCH,
                               flicker_weight=FLICKER_WEIGHT)
     checkpoint.save(final, model, record)

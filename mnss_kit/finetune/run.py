@@ -63,7 +63,7 @@ def finetune(capture: Path, out: Path, model: str, minutes: float = DEFAULT_MINU
     ``detail``: the steering for part of the minutes, then a detail branch fitted (ntaau_lr only),
     of ``detail_width`` when given (else ``finetune.detail.BRANCH``'s);
     ``threads``: torch threads for both (``train.threads``: 0 is a share of the idle cores)."""
-    from .detail import BRANCH, check_detail, fit_detail
+    from .detail import branch_settings, check_detail, fit_detail
 
     if not 0.0 < hold_back < 1.0:
         raise UserError(f"--hold-back is the share of frames judged, in (0, 1); got {hold_back}")
@@ -91,7 +91,8 @@ def finetune(capture: Path, out: Path, model: str, minutes: float = DEFAULT_MINU
     summary = _judge(model, tuned, out, splits, progress)
     summary["settings"] = {"capture": portable_path(capture), "model": model, "minutes": minutes, "hold_back": hold_back,
                            "warmup": warmup, "recipe": RECIPE, "threads": threads, "detail": detail,
-                           "detail_share": DETAIL_SHARE if detail else None, "detail_width": (detail_width or BRANCH["detail_width"]) if detail else None,
+                           "detail_share": DETAIL_SHARE if detail else None,
+                           "detail_width": branch_settings(detail_width)["detail_width"] if detail else None,
                            "sequences": {s.name: {"frames": s.frames, "tuned": len(s.tune), "held_back": len(s.held_back)}
                                          for s in splits}}
     atomic_write_json(out / "heldback.json", summary)

@@ -167,27 +167,27 @@ def base_config(name: str) -> str:
 def detail_width(name: str) -> int | None:
     """The detail branch's width of rung ``name``: N for ``CONFIG+detailN``, ``finetune.detail.BRANCH``'s
     for ``CONFIG+detail``, None for a rung without a branch."""
-    from ..finetune.detail import BRANCH
+    from ..finetune.detail import branch_settings
 
     base = base_config(name)
     if base == name:
         return None
     width = name[len(base) + len(DETAIL):]
-    return int(width) if width else BRANCH["detail_width"]
+    return branch_settings(int(width) if width else None)["detail_width"]
 
 
 def _detail_rung_macs(name: str, scale: int | float) -> float:
     """MACs per pixel of rung ``CONFIG+detail[N]`` (refused in one line when CONFIG cannot take the branch)."""
     from ..config import to_dict
-    from ..finetune.detail import BRANCH, branch_config, check_detail
+    from ..finetune.detail import branch_config, branch_settings, check_detail
     from ..model.config import load_model_config
     from ..model.families import build_model
     from ..model.macs import count_macs
 
     config = load_model_config(base_config(name))
     check_detail({"family": config.family, "scale": scale}, base_config(name), what=f"rung '{name}'")
-    branch = {**BRANCH, "detail_width": detail_width(name)}
-    return count_macs(build_model(branch_config(to_dict(config), branch, source=f"rung '{name}'"))).total
+    settings = branch_settings(detail_width(name))
+    return count_macs(build_model(branch_config(to_dict(config), settings, source=f"rung '{name}'"))).total
 
 
 def default_ladder(rows: dict[str, dict], scale: int | float) -> list[str]:
